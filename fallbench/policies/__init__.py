@@ -1,0 +1,27 @@
+"""Post-impact gain policies, by the name users type in `--policies`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fallbench.policies.base import GainPolicy, Observation
+from fallbench.policies.oneshot import OneshotPolicy
+from fallbench.policies.stiff import StiffPolicy
+from fallbench.policies.zero import ZeroPolicy
+
+POLICIES: dict[str, type[GainPolicy]] = {
+    "stiff": StiffPolicy,
+    "oneshot": OneshotPolicy,
+    "zero": ZeroPolicy,
+}
+
+
+def make_policy(name: str, world: Any, params: dict[str, Any]) -> GainPolicy:
+    try:
+        cls = POLICIES[name]
+    except KeyError:
+        raise ValueError(f"unknown policy {name!r}; known: {', '.join(POLICIES)}") from None
+    return cls(world, params)
+
+
+__all__ = ["GainPolicy", "Observation", "POLICIES", "make_policy"]

@@ -1,0 +1,20 @@
+"""Robot registry: a new robot is a new entry here, not a fork of the simulator code."""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Callable
+
+from fallbench.robots.description import RobotDescription
+from fallbench.robots.talos import talos
+
+ROBOTS: dict[str, Callable[[], RobotDescription]] = {"talos": talos}
+
+
+@cache
+def get_robot(name: str) -> RobotDescription:
+    try:
+        factory = ROBOTS[name]
+    except KeyError:
+        raise KeyError(f"unknown robot {name!r}; known: {', '.join(sorted(ROBOTS))}") from None
+    return factory()

@@ -1,0 +1,75 @@
+"""PAL Robotics TALOS (90 kg, 32 actuated joints) from example-robot-data."""
+
+from __future__ import annotations
+
+from importlib.metadata import distribution, version
+from pathlib import Path
+
+from fallbench.robots.description import (
+    GainGroup,
+    RobotDescription,
+    read_srdf_armature,
+    read_srdf_disabled_collisions,
+    read_srdf_postures,
+)
+
+# Stiff position-control gains, of the order of the HRP-4/TALOS defaults used in 002 Sec. VI
+# (legs 2000 Nm/rad, 20 Nms/rad).
+TALOS_GAINS = (
+    GainGroup(r"leg_.*", 2000.0, 20.0),
+    GainGroup(r"torso_.*", 1000.0, 10.0),
+    GainGroup(r"arm_(left|right)_[1-4]_joint", 500.0, 5.0),
+    GainGroup(r"arm_(left|right)_[5-7]_joint", 100.0, 1.0),
+    GainGroup(r"head_.*", 50.0, 0.5),
+    GainGroup(r"gripper_.*", 50.0, 0.5),
+)
+
+# Bodies by the damage group a contact on them counts for.
+TALOS_BODY_GROUPS: dict[str, tuple[str, ...]] = {
+    "feet": ("leg_left_6_link", "leg_right_6_link", "leg_left_5_link", "leg_right_5_link"),
+    "knees": ("leg_left_4_link", "leg_right_4_link", "leg_left_3_link", "leg_right_3_link"),
+    "hands": tuple(
+        f"{part}_{side}_{suffix}"
+        for side in ("left", "right")
+        for part, suffix in (
+            ("arm", "5_link"), ("arm", "6_link"), ("arm", "7_link"), ("wrist", "ft_link"),
+            ("wrist", "ft_tool_link"), ("gripper", "base_link"), ("gripper", "motor_double_link"),
+            ("gripper", "inner_double_link"), ("gripper", "fingertip_1_link"),
+            ("gripper", "fingertip_2_link"), ("gripper", "motor_single_link"),
+            ("gripper", "inner_single_link"), ("gripper", "fingertip_3_link"),
+        )
+    ),
+    "arms": tuple(f"arm_{side}_{i}_link" for side in ("left", "right") for i in (1, 2, 3, 4)),
+    "torso": ("base_link", "torso_1_link", "torso_2_link", "leg_left_1_link", "leg_right_1_link",
+              "leg_left_2_link", "leg_right_2_link"),
+    "head": ("head_1_link", "head_2_link", "rgbd_link"),
+}
+
+
+def _data_root() -> Path:
+    dist = distribution("example-robot-data")
+    return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+
+
+def talos() -> RobotDescription:
+    root = _data_root()
+    srdf = root / "talos_data/srdf/talos.srdf"
+    postures, heights = read_srdf_postures(srdf)
+    return RobotDescription(
+        name="talos",
+        urdf_path=root / "talos_data/robots/talos_reduced_box.urdf",
+        srdf_path=srdf,
+        mesh_root=root,
+        package_prefix="example-robot-data/robots/",
+        version=f"example-robot-data {version('example-robot-data')}",
+        root_body="base_link",
+        torso_body="torso_2_link",
+        imu_body="base_link",  # waist IMU, z up (the real IMU link is on the torso, z down)
+        knee_joints=("leg_left_4_joint", "leg_right_4_joint"),
+        gain_groups=TALOS_GAINS,
+        body_groups=TALOS_BODY_GROUPS,
+        armature=read_srdf_armature(srdf),
+        postures=postures,
+        posture_base_height=heights,
+        disabled_collisions=read_srdf_disabled_collisions(srdf),
+    )

@@ -1,0 +1,304 @@
+"""The MuJoCo scene of one scenario: robot, floor, obstacles, IMU, contact sensors, servo actuators.
+
+Contact and joint-limit softness decide the impact peaks (FACTS.md), so they are fixed here, once,
+for every robot and scenario:
+
+- integrator `implicitfast`, physics step from the scenario (1 ms by default);
+- contacts: solref (0.005 s, 1.0), i.e. a critically damped contact with a 5 ms time constant
+  (the stiffest MuJoCo recommends at a 1 ms step: >= 2 steps per time constant), solimp
+  (0.9, 0.95, 0.001); condim 3 with the scenario's friction;
+- joint limits (mechanical stops): solreflimit (0.005 s, 1.0), the same 5 ms stop, so that a joint
+  driven into its stop is stopped within a few milliseconds as by a hard end stop;
+- self-collisions on, except the pairs the robot's SRDF disables and parent-child pairs;
+- MuJoCo's automatic reset on divergence is disabled, so a diverged run is seen and stored.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+import mujoco
+import numpy as np
+
+from fallbench.robots import get_robot
+from fallbench.robots.description import RobotDescription
+from fallbench.scenario import Box, Cylinder, Scenario
+
+CONTACT_SOLREF = (0.005, 1.0)
+CONTACT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
+LIMIT_SOLREF = (0.005, 1.0)
+ROBOT_COLLISION_BITS = (1, 1)  # contype, conaffinity: robot geoms touch each other and the scene
+FLOOR_NAME = "floor"
+
+
+@dataclass(frozen=True)
+class SensorSlice:
+    start: int
+    size: int
+
+
+@dataclass
+class World:
+    """A compiled scene and the indices the controller, recorder and metrics need."""
+
+    model: mujoco.MjModel
+    robot: RobotDescription
+    joint_names: tuple[str, ...]  # actuated joints, in actuator order
+    qpos_adr: np.ndarray  # qpos index of each actuated joint
+    qvel_adr: np.ndarray  # qvel index of each actuated joint
+    torque_limit: np.ndarray  # Nm, per actuator
+    joint_range: np.ndarray  # rad, (n, 2)
+    default_kp: np.ndarray  # Nm/rad
+    default_kd: np.ndarray  # Nms/rad
+    sensors: dict[str, SensorSlice]
+    contact_groups: dict[str, list[str]]  # body group -> contact sensor names
+    obstacle_sensors: list[str]
+    torso_body: int
+    root_body: int
+
+    def sensor(self, sensordata: np.ndarray, name: str) -> np.ndarray:
+        s = self.sensors[name]
+        return sensordata[..., s.start : s.start + s.size]
+
+
+# ---------------------------------------------------------------- building the spec
+
+def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
+    import xml.etree.ElementTree as ET
+
+    tree = ET.fromstring(robot.urdf_text())
+    for tag in ("gazebo", "transmission"):
+        for element in tree.findall(tag):
+            tree.remove(element)
+    extension = ET.SubElement(tree, "mujoco")
+    # strippath=false: two different meshes are both called base_link.STL.
+    ET.SubElement(extension, "compiler", strippath="false", discardvisual="true",
+                  fusestatic="false", balanceinertia="true")
+    return mujoco.MjSpec.from_string(ET.tostring(tree, encoding="unicode"))
+
+
+def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, friction: float) -> None:
+    geom = spec.worldbody.add_geom()
+    geom.name = f"obstacle_{index}"
+    geom.pos = obstacle.pos
+    if isinstance(obstacle, Box):
+        geom.type = mujoco.mjtGeom.mjGEOM_BOX
+        geom.size = [s / 2 for s in obstacle.size]
+        half_yaw = math.radians(obstacle.yaw) / 2
+        geom.quat = [math.cos(half_yaw), 0.0, 0.0, math.sin(half_yaw)]
+    else:
+        geom.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+        geom.size = [obstacle.radius, obstacle.height / 2, 0.0]
+    geom.friction = [friction, 0.005, 0.0001]
+    geom.rgba = [0.6, 0.45, 0.3, 1.0]
+
+
+def _add_contact_sensor(spec: mujoco.MjSpec, name: str, body: str, subtree: bool = False, geom2: str | None = None) -> None:
+    sensor = spec.add_sensor()
+    sensor.name = name
+    sensor.type = mujoco.mjtSensor.mjSENS_CONTACT
+    sensor.objtype = mujoco.mjtObj.mjOBJ_XBODY if subtree else mujoco.mjtObj.mjOBJ_BODY
+    sensor.objname = body
+    if geom2 is not None:
+        sensor.reftype = mujoco.mjtObj.mjOBJ_GEOM
+        sensor.refname = geom2
+    # data = found (1) + force (3), reduced to the net force over all matching contacts
+    sensor.intprm = [1 | 2, 3, 1] + [0] * (len(sensor.intprm) - 3)
+
+
+def build_spec(scenario: Scenario) -> mujoco.MjSpec:
+    robot = get_robot(scenario.robot)
+    spec = _robot_spec(robot)
+    spec.modelname = f"fallbench_{scenario.name}"
+    spec.option.timestep = scenario.physics_dt
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+
+    root = spec.body(robot.root_body)
+    root.add_freejoint().name = "root"
+    for geom in spec.geoms:
+        geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
+        geom.condim = 3
+        geom.friction = [scenario.friction, 0.005, 0.0001]
+        geom.solref, geom.solimp = CONTACT_SOLREF, CONTACT_SOLIMP
+    for body1, body2 in robot.disabled_collisions:
+        if spec.body(body1) is not None and spec.body(body2) is not None:
+            exclude = spec.add_exclude()
+            exclude.bodyname1, exclude.bodyname2 = body1, body2
+
+    floor = spec.worldbody.add_geom()
+    floor.name = FLOOR_NAME
+    floor.type = mujoco.mjtGeom.mjGEOM_PLANE
+    floor.size = [20.0, 20.0, 0.1]
+    floor.friction = [scenario.friction, 0.005, 0.0001]
+    floor.rgba = [0.8, 0.8, 0.8, 1.0]
+    for index, obstacle in enumerate(scenario.obstacles):
+        _add_obstacle(spec, index, obstacle, scenario.friction)
+    light = spec.worldbody.add_light()
+    light.pos, light.dir = [0.0, 0.0, 4.0], [0.0, 0.0, -1.0]
+
+    for joint in spec.joints:
+        if joint.type != mujoco.mjtJoint.mjJNT_HINGE:
+            continue
+        joint.armature = robot.armature.get(joint.name, 0.0)
+        joint.solref_limit = LIMIT_SOLREF
+        kp, kd = robot.default_gains(joint.name)
+        actuator = spec.add_actuator()
+        actuator.name = joint.name
+        actuator.target = joint.name
+        actuator.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        actuator.set_to_position(kp=kp, kv=kd)
+        actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        limit = joint.actfrcrange[1]
+        actuator.forcerange = [-limit, limit]
+        actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+
+    imu = spec.body(robot.imu_body).add_site()
+    imu.name = "imu"
+    for name, kind in (("imu_acc", mujoco.mjtSensor.mjSENS_ACCELEROMETER), ("imu_gyro", mujoco.mjtSensor.mjSENS_GYRO)):
+        sensor = spec.add_sensor()
+        sensor.name, sensor.type = name, kind
+        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_SITE, "imu"
+    for name, kind in (("base_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS), ("base_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT),
+                       ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL)):
+        sensor = spec.add_sensor()
+        sensor.name, sensor.type = name, kind
+        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_BODY, robot.root_body
+
+    _add_contact_sensor(spec, "contact:total", robot.root_body, subtree=True)
+    for group, bodies in robot.body_groups.items():
+        for body in bodies:
+            if spec.body(body) is not None and spec.body(body).geoms:
+                _add_contact_sensor(spec, f"contact:{group}:{body}", body)
+    for index in range(len(scenario.obstacles)):
+        _add_contact_sensor(spec, f"obstacle:{index}", robot.root_body, subtree=True, geom2=f"obstacle_{index}")
+    return spec
+
+
+# ---------------------------------------------------------------- compiled world
+
+def _world_key(scenario: Scenario) -> str:
+    """Only what changes the compiled model: a sweep over pushes or heights reuses one model."""
+    return scenario.model_copy(update={"initial": None, "push": None, "duration": 1.0, "seed": 0,
+                                       "name": "", "detection": None, "policy_params": {}}).model_dump_json()
+
+
+def _compile(scenario: Scenario) -> World:
+    spec = build_spec(scenario)
+    model = spec.compile()
+    robot = get_robot(scenario.robot)
+    sensors = {model.sensor(i).name: SensorSlice(int(model.sensor_adr[i]), int(model.sensor_dim[i]))
+               for i in range(model.nsensor)}
+    names = tuple(model.actuator(i).name for i in range(model.nu))
+    joint_ids = [model.joint(n).id for n in names]
+    groups: dict[str, list[str]] = {}
+    for name in sensors:
+        if name.startswith("contact:") and name != "contact:total":
+            groups.setdefault(name.split(":")[1], []).append(name)
+    return World(
+        model=model,
+        robot=robot,
+        joint_names=names,
+        qpos_adr=np.array([model.jnt_qposadr[j] for j in joint_ids]),
+        qvel_adr=np.array([model.jnt_dofadr[j] for j in joint_ids]),
+        torque_limit=model.actuator_forcerange[:, 1].copy(),
+        joint_range=model.jnt_range[joint_ids].copy(),
+        default_kp=model.actuator_gainprm[:, 0].copy(),
+        default_kd=-model.actuator_biasprm[:, 2].copy(),
+        sensors=sensors,
+        contact_groups=groups,
+        obstacle_sensors=[n for n in sensors if n.startswith("obstacle:")],
+        torso_body=model.body(robot.torso_body).id,
+        root_body=model.body(robot.root_body).id,
+    )
+
+
+_WORLDS: dict[str, World] = {}
+
+
+def build_world(scenario: Scenario) -> World:
+    """The compiled scene for a scenario; scenarios that differ only in start/push share it."""
+    key = _world_key(scenario)
+    if key not in _WORLDS:
+        if len(_WORLDS) >= 8:  # a worker sees few distinct scenes; bound the memory anyway
+            _WORLDS.pop(next(iter(_WORLDS)))
+        _WORLDS[key] = _compile(scenario)
+    return _WORLDS[key]
+
+
+# ---------------------------------------------------------------- initial state
+
+def _lowest_point(model: mujoco.MjModel, data: mujoco.MjData, body_ids: set[int]) -> float:
+    """Lowest z of the robot's collision geometry (box corners and mesh vertices)."""
+    lowest = math.inf
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] not in body_ids:
+            continue
+        rot, pos = data.geom_xmat[g].reshape(3, 3), data.geom_xpos[g]
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+            corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T * model.geom_size[g]
+        elif model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            mesh = model.geom_dataid[g]
+            start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+            corners = model.mesh_vert[start : start + count]
+        else:
+            corners = np.zeros((1, 3))
+            lowest = min(lowest, pos[2] - model.geom_rbound[g])
+        lowest = min(lowest, float((corners @ rot.T + pos)[:, 2].min()))
+    return lowest
+
+
+def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
+    """MjData at t = 0: the named posture with overrides, feet `initial.height` above the floor."""
+    model, robot = world.model, world.robot
+    data = mujoco.MjData(model)
+    posture = dict(robot.postures[scenario.initial.posture])
+    posture.update(scenario.initial.joints)
+    for name, value in posture.items():
+        joint = model.joint(name)
+        data.qpos[model.jnt_qposadr[joint.id]] = value
+    root_adr = model.jnt_qposadr[model.body_jntadr[world.root_body]]
+    data.qpos[root_adr : root_adr + 7] = [0, 0, 0, 1, 0, 0, 0]
+    mujoco.mj_kinematics(model, data)
+    robot_bodies = set(range(1, model.nbody))
+    data.qpos[root_adr + 2] = scenario.initial.height - _lowest_point(model, data, robot_bodies)
+    data.ctrl[:] = data.qpos[world.qpos_adr]
+    mujoco.mj_forward(model, data)
+    return data
+
+
+# ---------------------------------------------------------------- checks before running
+
+def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
+    """(key, reason) of the first problem that needs the robot or the scene to see, else None."""
+    from fallbench.robots import ROBOTS
+
+    if scenario.robot not in ROBOTS:
+        return "robot", f"unknown robot {scenario.robot!r} (known: {', '.join(sorted(ROBOTS))})"
+    robot = get_robot(scenario.robot)
+    if scenario.initial.posture not in robot.postures:
+        return "initial.posture", f"unknown posture {scenario.initial.posture!r} (known: {', '.join(robot.postures)})"
+    world = build_world(scenario)
+    model = world.model
+    for name in scenario.initial.joints:
+        if name not in world.joint_names:
+            return f"initial.joints.{name}", f"unknown joint of robot {robot.name!r}"
+    for name, value in scenario.initial.joints.items():
+        low, high = world.joint_range[world.joint_names.index(name)]
+        if not low <= value <= high:
+            return f"initial.joints.{name}", f"{value} rad is outside the joint range [{low:.3f}, {high:.3f}] rad"
+    if scenario.push and scenario.push.body is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scenario.push.body) < 1:
+        return "push.body", f"unknown body {scenario.push.body!r} of robot {robot.name!r}"
+    for key, value in (("push.start", scenario.push.start if scenario.push else 0.0),):
+        if value >= scenario.duration:
+            return key, f"the push starts at {value} s, after the episode ends ({scenario.duration} s)"
+    data = initial_state(world, scenario)
+    mujoco.mj_collision(model, data)
+    for contact in data.contact[: data.ncon]:
+        names = {model.geom(contact.geom1).name, model.geom(contact.geom2).name}
+        obstacle = next((n for n in names if n.startswith("obstacle_")), None)
+        if obstacle is not None and contact.dist < 0:
+            index = int(obstacle.split("_")[1])
+            return f"obstacles.{index}", f"intersects the robot at start (penetration {-contact.dist * 1000:.0f} mm)"
+    return None
