@@ -149,20 +149,26 @@ def _line_of(doc: Any, loc: tuple[Any, ...]) -> int | None:
     return line
 
 
-def _read_yaml(path: Path) -> CommentedMap:
+def _read_yaml(path: Path) -> list[CommentedMap]:
+    """The YAML documents of a file (several families can share a file, separated by `---`)."""
     try:
         text = path.read_text()
     except OSError as exc:
         raise ScenarioError(path, None, "", f"cannot read file ({exc.strerror})") from None
     try:
-        doc = YAML(typ="rt").load(text)
+        docs = list(YAML(typ="rt").load_all(text))
     except MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None
         raise ScenarioError(path, line, "", f"malformed YAML: {exc.problem or exc.context}") from None
-    if not isinstance(doc, CommentedMap):
-        raise ScenarioError(path, 1, "", "a scenario file must be a YAML mapping")
-    return doc
+    docs = [doc for doc in docs if doc is not None]
+    if not docs:
+        raise ScenarioError(path, 1, "", "empty file: expected a scenario mapping")
+    for doc in docs:
+        if not isinstance(doc, CommentedMap):
+            line = doc.lc.line + 1 if hasattr(doc, "lc") else 1
+            raise ScenarioError(path, line, "", "a scenario document must be a YAML mapping")
+    return docs
 
 
 def _plain(node: Any) -> Any:
@@ -238,10 +244,13 @@ def _origin(spec: ScenarioFile, key: str) -> tuple[str, str]:
 
 def load_scenario_file(path: Path | str) -> list[ScenarioPoint]:
     """Parse, validate and expand one scenario file; raises ScenarioError on any bad input."""
+    path = Path(path)
+    return [point for doc in _read_yaml(path) for point in _load_document(path, doc)]
+
+
+def _load_document(path: Path, doc: CommentedMap) -> list[ScenarioPoint]:
     from fallbench.world import check_scenario  # the world knows robots, bodies and geometry
 
-    path = Path(path)
-    doc = _read_yaml(path)
     try:
         spec = ScenarioFile.model_validate(_plain(doc))
     except ValidationError as exc:

@@ -55,6 +55,8 @@ class World:
     obstacle_sensors: list[str]
     torso_body: int
     root_body: int
+    contact_bodies: list[str]  # body of each per-body contact sensor
+    contact_found_columns: np.ndarray  # sensordata column of each one's "found" count
 
     def sensor(self, sensordata: np.ndarray, name: str) -> np.ndarray:
         s = self.sensors[name]
@@ -94,14 +96,15 @@ def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, fri
 
 
 def _add_contact_sensor(spec: mujoco.MjSpec, name: str, body: str, subtree: bool = False, geom2: str | None = None) -> None:
+    """Net force between `body` (or its subtree) and the environment: the world's static geoms
+    (floor and obstacles), or one obstacle geom. Robot self-contacts are not counted."""
     sensor = spec.add_sensor()
     sensor.name = name
     sensor.type = mujoco.mjtSensor.mjSENS_CONTACT
     sensor.objtype = mujoco.mjtObj.mjOBJ_XBODY if subtree else mujoco.mjtObj.mjOBJ_BODY
     sensor.objname = body
-    if geom2 is not None:
-        sensor.reftype = mujoco.mjtObj.mjOBJ_GEOM
-        sensor.refname = geom2
+    sensor.reftype = mujoco.mjtObj.mjOBJ_BODY if geom2 is None else mujoco.mjtObj.mjOBJ_GEOM
+    sensor.refname = "world" if geom2 is None else geom2
     # data = found (1) + force (3), reduced to the net force over all matching contacts
     sensor.intprm = [1 | 2, 3, 1] + [0] * (len(sensor.intprm) - 3)
 
@@ -196,6 +199,7 @@ def _compile(scenario: Scenario) -> World:
     for name in sensors:
         if name.startswith("contact:") and name != "contact:total":
             groups.setdefault(name.split(":")[1], []).append(name)
+    body_sensors = [n for names in groups.values() for n in names]
     return World(
         model=model,
         robot=robot,
@@ -211,6 +215,8 @@ def _compile(scenario: Scenario) -> World:
         obstacle_sensors=[n for n in sensors if n.startswith("obstacle:")],
         torso_body=model.body(robot.torso_body).id,
         root_body=model.body(robot.root_body).id,
+        contact_bodies=[n.split(":")[2] for n in body_sensors],
+        contact_found_columns=np.array([sensors[n].start for n in body_sensors]),
     )
 
 
@@ -302,3 +308,16 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
             index = int(obstacle.split("_")[1])
             return f"obstacles.{index}", f"intersects the robot at start (penetration {-contact.dist * 1000:.0f} mm)"
     return None
+
+
+def export_mjcf(scenario: Scenario) -> str:
+    """The scene as MJCF text, with the initial state as keyframe `start`."""
+    world = build_world(scenario)
+    data = initial_state(world, scenario)
+    spec = build_spec(scenario)
+    key = spec.add_key()
+    key.name = "start"
+    key.qpos = data.qpos.tolist()
+    key.ctrl = data.ctrl.tolist()
+    spec.compile()
+    return spec.to_xml()

@@ -1,0 +1,154 @@
+"""`fallbench` command line: parses, calls the library, formats errors. Bad input exits 2."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
+
+SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml")]
+SUMMARY_COLUMNS = ["imu_peak_z", "knee_limit_margin", "torque_ratio_max", "torque_demand_ratio_max",
+                   "joint_limit_hits", "contact_force_peak", "fell"]
+
+app = typer.Typer(help="Compare humanoid fall-control strategies in MuJoCo: sweep scenarios, store metrics.",
+                  no_args_is_help=True, pretty_exceptions_enable=False, add_completion=False)
+run_app = typer.Typer(help="Simulate falls.", no_args_is_help=True)
+scenarios_app = typer.Typer(help="Check and export scenario files.", no_args_is_help=True)
+app.add_typer(run_app, name="run")
+app.add_typer(scenarios_app, name="scenarios")
+
+
+def fail(message: str, code: int = 2) -> None:
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def _load(files: list[Path]) -> list[ScenarioPoint]:
+    try:
+        return load_scenarios(list(files))
+    except ScenarioError as exc:
+        fail(str(exc))
+    raise AssertionError  # unreachable: fail() exits
+
+
+def _policies(text: str) -> list[str]:
+    from fallbench.policies import POLICIES
+
+    names = [p.strip() for p in text.split(",") if p.strip()]
+    for name in names:
+        if name not in POLICIES:
+            fail(f"--policies: unknown policy {name!r}; known: {', '.join(POLICIES)}")
+    return names
+
+
+def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> ScenarioPoint:
+    """One point of a file's sweep: `--point 3` (index) or `--point key=value` (repeatable)."""
+    chosen = points
+    for selector in selectors:
+        if selector.isdigit():
+            index = int(selector)
+            if index >= len(points):
+                fail(f"{file}: --point {index}: the file has {len(points)} points (0..{len(points) - 1})")
+            chosen = [points[index]]
+            continue
+        key, _, value = selector.partition("=")
+        if not value:
+            fail(f"--point {selector!r}: expected an index or key=value")
+        chosen = [p for p in chosen if key in p.swept and _same(p.swept[key], value)]
+    if len(chosen) != 1:
+        labels = "\n  ".join(f"{i}: {p.label}" for i, p in enumerate(points))
+        fail(f"{file}: --point selects {len(chosen)} points, need exactly 1; the points are:\n  {labels}")
+    return chosen[0]
+
+
+def _same(swept: object, text: str) -> bool:
+    try:
+        return abs(float(swept) - float(text)) < 1e-9  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return str(swept) == text
+
+
+@run_app.command("sweep")
+def run_sweep_command(
+    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push and obstacle scenarios)."),
+    policies: str = typer.Option("stiff,oneshot,zero", help="Comma-separated gain policies."),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes."),
+    results: Path = typer.Option(Path("results"), help="Results store folder."),
+    reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
+    strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
+    progress: bool = typer.Option(True, help="Show a progress bar."),
+) -> None:
+    """Run every (scenario point, seed, policy) not yet in the store, then print a summary.
+
+    Interrupted sweeps resume: finished runs are skipped. Failed runs are stored with their status.
+    """
+    from fallbench.runner import expand, run_sweep
+
+    points = _load(files or SHIPPED)
+    specs = expand(points, _policies(policies), ["none"])
+    table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty())
+    summary = table.groupby(["scenario", "policy"])[SUMMARY_COLUMNS].median(numeric_only=True)
+    summary.insert(0, "runs", table.groupby(["scenario", "policy"]).size())
+    summary.insert(1, "failed", table[table.status != "ok"].groupby(["scenario", "policy"]).size().reindex(summary.index, fill_value=0))
+    reports.mkdir(parents=True, exist_ok=True)
+    (reports / "sweep_summary.md").write_text("# Sweep summary (medians over runs)\n\n" + summary.round(3).to_markdown() + "\n")
+    typer.echo(summary.round(3).to_string())
+    failed = table[table.status != "ok"]
+    typer.echo(f"\n{len(table)} runs in {results}/metrics.parquet, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md")
+    for _, row in failed.iterrows():
+        typer.echo(f"  {row.status}: {row.policy} {row.point}: {row.error}", err=True)
+    if strict and len(failed):
+        raise typer.Exit(1)
+
+
+@run_app.command("one")
+def run_one_command(
+    file: Path = typer.Argument(..., help="Scenario YAML file."),
+    point: list[str] = typer.Option([], help="Sweep point: an index, or key=value (repeatable)."),
+    policy: str = typer.Option("stiff", help="Gain policy."),
+    results: Path = typer.Option(Path("results"), help="Results store folder."),
+) -> None:
+    """Run one case, store it, and print its metrics."""
+    from fallbench.runner import RunSpec, execute
+
+    chosen = _select(_load([file]), point, file)
+    row = execute(RunSpec(chosen, _policies(policy)[0]), results)
+    width = max(len(k) for k in row)
+    for key, value in row.items():
+        typer.echo(f"{key:<{width}}  {value:.4g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
+    if row["status"] != "ok":
+        raise typer.Exit(1)
+
+
+@scenarios_app.command("validate")
+def validate_command(files: list[Path] = typer.Argument(..., help="Scenario YAML files.")) -> None:
+    """Check scenario files completely (schema, sweep points, robot, obstacles) without running them."""
+    for file in files:
+        points = _load([file])
+        typer.echo(f"{file}: ok, {len(points)} points")
+
+
+@scenarios_app.command("export")
+def export_command(
+    file: Path = typer.Argument(..., help="Scenario YAML file."),
+    point: list[str] = typer.Option([], help="Sweep point: an index, or key=value (repeatable)."),
+    out: Path = typer.Option(Path("scene.xml"), help="MJCF file to write."),
+) -> None:
+    """Write the compiled scene (robot, floor, obstacles, actuators, sensors) as MJCF.
+
+    The file opens in MuJoCo's viewer (`python -m mujoco.viewer --mjcf scene.xml`) and loads with
+    `mujoco.MjModel.from_xml_path` alone; the keyframe `start` holds the initial state.
+    """
+    from fallbench.world import export_mjcf
+
+    chosen = _select(_load([file]), point or ["0"], file)
+    out.write_text(export_mjcf(chosen.scenario))
+    typer.echo(f"wrote {out} ({chosen.label})")
+
+
+def main() -> None:
+    app()

@@ -1,0 +1,145 @@
+"""The control loop of one fall and the recorder of its time series.
+
+Physics at `physics_dt`, controller every `control_dt`: state -> fall detector -> impact detector ->
+gain policy -> servo references and gains written into the actuators. Everything the metrics need
+is recorded at the physics rate from MuJoCo's sensors (computed in C inside the step).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from fallbench.events import FallDetector, ImpactDetector
+from fallbench.policies import GainPolicy, Observation, make_policy
+from fallbench.scenario import Scenario
+from fallbench.servo import ServoCommand, write_servo
+from fallbench.world import World, build_world, initial_state
+
+DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
+
+
+class Diverged(RuntimeError):
+    """The simulation produced NaNs or MuJoCo flagged bad accelerations, velocities or positions."""
+
+
+@dataclass
+class Recording:
+    """Time series of one episode: physics-rate arrays, control-rate gains, and event times."""
+
+    world: World
+    scenario: Scenario
+    time: np.ndarray  # s, (steps,)
+    sensordata: np.ndarray  # (steps, nsensordata), at the start of each physics step
+    qpos: np.ndarray  # (steps, nq)
+    qvel: np.ndarray  # (steps, nv)
+    actuator_force: np.ndarray  # Nm, (steps, nu), after the torque limit
+    kp: np.ndarray  # Nm/rad held over each physics step, (steps, nu)
+    kd: np.ndarray  # Nms/rad, (steps, nu)
+    q_ref: np.ndarray  # rad, (steps, nu)
+    qd_ref: np.ndarray  # rad/s, (steps, nu)
+    fall_time: float | None
+    fall_reason: str
+    impact_time: float | None  # s, control step at which the policy switched
+    impact_bodies: list[str]
+    controller_ms: np.ndarray  # ms per control step spent in the policy
+    policy_stats: dict[str, float] = field(default_factory=dict)
+    steps: int = 0
+    status: str = "ok"
+    error: str = ""
+
+
+def _touching(world: World, sensor_rows: np.ndarray) -> set[str]:
+    """Robot bodies whose contact sensor found a contact in any of these sensor rows."""
+    found = sensor_rows[:, world.contact_found_columns].max(axis=0) > 0
+    return {world.contact_bodies[i] for i in np.flatnonzero(found)}
+
+
+def _push_force(world: World, scenario: Scenario, data: mujoco.MjData) -> tuple[int, np.ndarray] | None:
+    push = scenario.push
+    if push is None or push.force == 0:
+        return None
+    body = world.model.body(push.body or world.robot.torso_body).id
+    heading = math.radians(push.direction)
+    force = push.force * np.array([math.cos(heading), math.sin(heading), 0.0])
+    return body, np.concatenate([force, np.zeros(3)])
+
+
+def run_episode(scenario: Scenario, policy_name: str) -> Recording:
+    world = build_world(scenario)
+    model = world.model
+    params = scenario.policy_params.get(policy_name, {})
+    policy: GainPolicy = make_policy(policy_name, world, params)
+    data = initial_state(world, scenario)
+
+    n_control = math.ceil(scenario.duration / scenario.control_dt - 1e-9)
+    per_control = scenario.physics_steps_per_control
+    n_steps = n_control * per_control
+    rec_time = np.zeros(n_steps)
+    rec_sensor = np.zeros((n_steps, model.nsensordata))
+    rec_qpos = np.zeros((n_steps, model.nq))
+    rec_qvel = np.zeros((n_steps, model.nv))
+    rec_force = np.zeros((n_steps, model.nu))
+    gains = np.zeros((4, n_control, model.nu))  # kp, kd, q_ref, qd_ref per control step
+    controller_ms = np.zeros(n_control)
+
+    q_start = data.qpos[world.qpos_adr].copy()
+    command = ServoCommand(world.default_kp, world.default_kd, q_start, np.zeros(model.nu))
+    fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall)
+    impact = ImpactDetector()
+    q_ref_impact: np.ndarray | None = None
+    push = _push_force(world, scenario, data)
+    torso_rotation = np.zeros(9)
+    mujoco.mj_forward(model, data)
+    sensor_row = data.sensordata.copy()
+    status, error, step = "ok", "", 0
+
+    for k in range(n_control):
+        t = data.time
+        mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
+        imu = world.sensor(sensor_row, "imu_acc")
+        touching = _touching(world, rec_sensor[max(step - per_control, 0) : step] if step else sensor_row[None])
+        if fall.update(t, torso_rotation.reshape(3, 3), imu):
+            impact.start(touching if fall.time == t else impact.support or set())
+        q, qd = data.qpos[world.qpos_adr].copy(), data.qvel[world.qvel_adr].copy()
+        if impact.update(t, touching):
+            if q_ref_impact is None:
+                q_ref_impact = q  # configuration just before impact (002 Sec. V)
+            started = time.perf_counter()
+            observation = Observation(t, data.qpos.copy(), data.qvel.copy(), q, qd, touching,
+                                      list(data.contact[: data.ncon]))
+            command = policy.after_impact(observation, q_ref_impact)
+            controller_ms[k] = (time.perf_counter() - started) * 1e3
+        write_servo(model, data, command)
+        gains[:, k] = command.kp, command.kd, command.q_ref, command.qd_ref
+        if push is not None:
+            active = scenario.push.start <= t < scenario.push.start + scenario.push.duration
+            data.xfrc_applied[push[0]] = push[1] if active else 0.0
+
+        for _ in range(per_control):
+            rec_time[step] = data.time
+            rec_qpos[step] = data.qpos
+            rec_qvel[step] = data.qvel
+            mujoco.mj_step(model, data)
+            # sensors and actuator forces are computed inside the step, from the state before it
+            rec_sensor[step] = data.sensordata
+            rec_force[step] = data.actuator_force
+            step += 1
+        sensor_row = rec_sensor[step - 1]
+        if any(data.warning[w].number for w in DIVERGENCE_WARNINGS) or not np.isfinite(data.qacc).all():
+            status = "diverged"
+            error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if data.warning[w].number) or "non-finite state"
+            break
+
+    held = np.repeat(gains[:, : k + 1], per_control, axis=1)[:, :step]
+    return Recording(
+        world=world, scenario=scenario, time=rec_time[:step], sensordata=rec_sensor[:step],
+        qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
+        kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
+        fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,
+        controller_ms=controller_ms[: k + 1], policy_stats=policy.stats(), steps=step, status=status, error=error,
+    )

@@ -1,0 +1,144 @@
+"""Every metric of a run, defined once, from the recorded time series (units in the README).
+
+The IMU is the waist accelerometer: specific force in the waist frame, z up, so it reads
++9.81 m/s^2 standing still and 0 in free fall.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from fallbench.episode import Recording
+from fallbench.servo import pd_demand
+
+LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
+IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated
+FELL_HEIGHT_FRACTION = 0.6  # base below this fraction of its standing height = fallen
+SMOOTHING_WINDOW = 0.005  # s, moving average for the *_5ms IMU peaks
+
+
+def moving_average(signal: np.ndarray, samples: int) -> np.ndarray:
+    if samples <= 1 or len(signal) < samples:
+        return signal
+    kernel = np.ones(samples) / samples
+    return np.convolve(signal, kernel, mode="valid")
+
+
+def _peak(signal: np.ndarray) -> float:
+    return float(np.max(np.abs(signal))) if len(signal) else float("nan")
+
+
+def imu_metrics(acc: np.ndarray, dt: float) -> dict[str, float]:
+    window = max(round(SMOOTHING_WINDOW / dt), 1)
+    norm = np.linalg.norm(acc, axis=1)
+    return {
+        "imu_peak_z": _peak(acc[:, 2]),
+        "imu_peak_norm": _peak(norm),
+        "imu_peak_z_5ms": _peak(moving_average(acc[:, 2], window)),
+        "imu_peak_norm_5ms": _peak(moving_average(norm, window)),
+    }
+
+
+def joint_limit_margins(q: np.ndarray, joint_range: np.ndarray) -> np.ndarray:
+    """Distance to the nearest limit per sample and joint (rad); negative = past the limit."""
+    return np.minimum(q - joint_range[:, 0], joint_range[:, 1] - q)
+
+
+def torque_metrics(applied: np.ndarray, demand: np.ndarray, limit: np.ndarray, dt: float) -> dict[str, float]:
+    saturated = np.abs(demand) > limit
+    return {
+        "torque_ratio_max": float(np.max(np.abs(applied) / limit)),
+        "torque_demand_ratio_max": float(np.max(np.abs(demand) / limit)),
+        "saturation_time": float(np.count_nonzero(saturated.any(axis=1)) * dt),
+    }
+
+
+def group_forces(rec: Recording) -> dict[str, np.ndarray]:
+    """Norm of the net contact force (N) on each body group, and in total, per physics step."""
+    world = rec.world
+    forces = {"total": np.linalg.norm(world.sensor(rec.sensordata, "contact:total")[:, 1:4], axis=1)}
+    for group, names in world.contact_groups.items():
+        net = sum(world.sensor(rec.sensordata, name)[:, 1:4] for name in names)
+        forces[group] = np.linalg.norm(net, axis=1)
+    return forces
+
+
+def first_contact_time(rec: Recording) -> float | None:
+    """Physics-rate time of the impact the controller detected (it sees it up to one control step later)."""
+    if rec.impact_time is None:
+        return None
+    world = rec.world
+    columns = [world.contact_found_columns[world.contact_bodies.index(b)] for b in rec.impact_bodies]
+    after_fall = rec.time >= (rec.fall_time or 0.0)
+    touching = (rec.sensordata[:, columns] > 0).any(axis=1) & after_fall
+    return float(rec.time[np.argmax(touching)]) if touching.any() else rec.impact_time
+
+
+def compute_metrics(rec: Recording) -> dict[str, object]:
+    world, scenario = rec.world, rec.scenario
+    dt = scenario.physics_dt
+    q = rec.qpos[:, world.qpos_adr]
+    qd = rec.qvel[:, world.qvel_adr]
+    margins = joint_limit_margins(q, world.joint_range)
+    knees = [world.joint_names.index(j) for j in world.robot.knee_joints]
+    demand = pd_demand(rec.kp, rec.kd, rec.q_ref, rec.qd_ref, q, qd)
+    forces = group_forces(rec)
+    impact = first_contact_time(rec)
+    base_height = rec.qpos[:, 2]
+    standing = world.robot.posture_base_height.get(scenario.initial.posture, float(base_height[0]))
+
+    row: dict[str, object] = {}
+    row.update(imu_metrics(world.sensor(rec.sensordata, "imu_acc"), dt))
+    row["knee_limit_margin"] = float(margins[:, knees].min())
+    row["joint_limit_hits"] = int(np.count_nonzero((margins < -LIMIT_HIT_TOLERANCE).any(axis=0)))
+    row.update(torque_metrics(rec.actuator_force, demand, world.torque_limit, dt))
+    row["contact_force_peak"] = float(forces["total"].max())
+    for group in world.contact_groups:
+        row[f"contact_force_peak_{group}"] = float(forces[group].max())
+    if impact is not None:
+        window = (rec.time >= impact) & (rec.time < impact + IMPULSE_WINDOW)
+        row["impulse"] = float(forces["total"][window].sum() * dt)
+        at = int(np.searchsorted(rec.time, impact))
+        row["impact_speed"] = float(np.linalg.norm(world.sensor(rec.sensordata[at], "base_linvel")))
+    else:
+        row["impulse"] = row["impact_speed"] = float("nan")
+    row["impact_time"] = float("nan") if impact is None else impact
+    row["policy_switch_time"] = float("nan") if rec.impact_time is None else float(rec.impact_time)
+    row["fall_time"] = float("nan") if rec.fall_time is None else float(rec.fall_time)
+    row["fall_reason"] = rec.fall_reason
+    row["first_contact_bodies"] = ",".join(rec.impact_bodies)
+    row["final_base_height"] = float(base_height[-1])
+    row["fell"] = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)
+    obstacle_force = [np.linalg.norm(world.sensor(rec.sensordata, n)[:, 1:4], axis=1) for n in world.obstacle_sensors]
+    row["obstacle_contacts"] = int(sum(bool((f > 0).any()) for f in obstacle_force))
+    row["obstacle_force_peak"] = float(max((f.max() for f in obstacle_force), default=0.0))
+    row["controller_ms_median"] = float(np.median(rec.controller_ms))
+    row.update({"qp_solve_ms_median": float("nan"), "qp_solve_ms_p99": float("nan"), "qp_failures": 0})
+    row.update(rec.policy_stats)
+    row["sim_steps"] = int(rec.steps)
+    row["sim_time"] = float(rec.steps * dt)
+    return row
+
+
+TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint")
+
+
+def timeseries(rec: Recording) -> pd.DataFrame:
+    """The signals the paper figures need, at the physics rate, float32."""
+    world = rec.world
+    acc = world.sensor(rec.sensordata, "imu_acc")
+    columns: dict[str, np.ndarray] = {"t": rec.time, "imu_acc_x": acc[:, 0], "imu_acc_y": acc[:, 1], "imu_acc_z": acc[:, 2]}
+    for axis, i in zip("xyz", range(3)):
+        columns[f"base_{axis}"] = rec.qpos[:, i]
+    for joint in TIMESERIES_JOINTS:
+        j = world.joint_names.index(joint)
+        columns[f"q:{joint}"] = rec.qpos[:, world.qpos_adr[j]]
+        columns[f"tau:{joint}"] = rec.actuator_force[:, j]
+    for group, force in group_forces(rec).items():
+        columns[f"force:{group}"] = force
+    for j, joint in enumerate(world.joint_names):
+        if joint.startswith("leg_"):
+            columns[f"K:{joint}"] = rec.kp[:, j]
+            columns[f"B:{joint}"] = rec.kd[:, j]
+    return pd.DataFrame({k: np.asarray(v, dtype=np.float32) for k, v in columns.items()})

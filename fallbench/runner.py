@@ -1,0 +1,108 @@
+"""Sweeps: expand scenarios into runs, execute them with joblib, store each one, resume.
+
+One failing run never stops a sweep: it is stored with status `error` (exception) or `diverged`
+(unstable simulation) and the sweep goes on.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from dataclasses import dataclass
+from importlib.metadata import version
+from pathlib import Path
+from typing import Any, Iterator
+
+import mujoco
+import pandas as pd
+from joblib import Parallel, delayed
+from tqdm import tqdm
+
+import fallbench
+from fallbench import store
+from fallbench.robots import get_robot
+from fallbench.scenario import ScenarioPoint
+
+PRE_IMPACT = ("none",)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    point: ScenarioPoint
+    policy: str
+    pre_impact: str = "none"
+
+    def resolved(self) -> dict[str, Any]:
+        """Everything that determines the run's outcome, including software versions."""
+        return {
+            "scenario": self.point.scenario.model_dump(mode="json"),
+            "policy": self.policy,
+            "pre_impact": self.pre_impact,
+            "versions": versions(self.point.scenario.robot),
+        }
+
+    @property
+    def run_id(self) -> str:
+        return store.run_id(self.resolved())
+
+
+def versions(robot: str) -> dict[str, str]:
+    return {"fallbench": fallbench.__version__, "mujoco": mujoco.__version__, "pin": version("pin"),
+            "robot": get_robot(robot).version}
+
+
+def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[str]) -> list[RunSpec]:
+    return [RunSpec(p, policy, pre) for p in points for pre in pre_impact for policy in policies]
+
+
+def _identity(spec: RunSpec) -> dict[str, Any]:
+    scenario = spec.point.scenario
+    row: dict[str, Any] = {
+        "run_id": spec.run_id, "schema_version": store.SCHEMA_VERSION, "scenario": scenario.name,
+        "point": spec.point.label, "source": spec.point.source, "policy": spec.policy,
+        "pre_impact": spec.pre_impact, "seed": scenario.seed,
+    }
+    row.update({f"param:{k}": v for k, v in spec.point.swept.items()})
+    row.update({f"version:{k}": v for k, v in versions(scenario.robot).items()})
+    return row
+
+
+def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
+    """Run one case, store it, return its metric row. Never raises for a failing simulation."""
+    from fallbench.episode import run_episode
+    from fallbench.metrics import compute_metrics, timeseries
+
+    started = time.perf_counter()
+    row = _identity(spec)
+    series = None
+    try:
+        recording = run_episode(spec.point.scenario, spec.policy)
+        row.update(compute_metrics(recording))
+        row["status"], row["error"] = recording.status, recording.error
+        series = timeseries(recording)
+    except Exception as exc:  # a failing run is stored, not raised: the sweep goes on
+        row["status"] = "error"
+        row["error"] = f"{type(exc).__name__}: {exc} | " + traceback.format_exc(limit=-1).strip().splitlines()[-2].strip()
+    row["wall_time_s"] = time.perf_counter() - started
+    store.write_run(results, row["run_id"], spec.resolved() | {"point": spec.point.label}, row, series)
+    return row
+
+
+def _backend_jobs(jobs: int) -> Parallel:
+    return Parallel(n_jobs=jobs, backend="loky" if jobs != 1 else "sequential", return_as="generator_unordered")
+
+
+def run_sweep(specs: list[RunSpec], results: Path, jobs: int = 2, progress: bool = True) -> pd.DataFrame:
+    """Run the specs not yet stored, then rebuild the consolidated table and return it."""
+    results.mkdir(parents=True, exist_ok=True)
+    unique = {s.run_id: s for s in specs}
+    todo = [s for rid, s in unique.items() if not store.is_done(results, rid)]
+    if todo:
+        rows: Iterator[dict[str, Any]] = _backend_jobs(jobs)(delayed(execute)(s, results) for s in todo)
+        bar = tqdm(rows, total=len(todo), desc="falls", unit="run", disable=not progress,
+                   initial=0, postfix={"skipped": len(unique) - len(todo)})
+        for row in bar:
+            bar.set_postfix_str(f"{row['policy']} {row['point']}: {row['status']}")
+    table = store.consolidate(results)
+    wanted = set(unique)
+    return table[table["run_id"].isin(wanted)] if not table.empty else table
