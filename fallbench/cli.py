@@ -152,3 +152,5 @@ def export_command(
 
 def main() -> None:
     app()
+if __name__ == "__main__":
+    main()

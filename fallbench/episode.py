@@ -23,8 +23,9 @@ from fallbench.world import World, build_world, initial_state
 DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
 
 
-class Diverged(RuntimeError):
-    """The simulation produced NaNs or MuJoCo flagged bad accelerations, velocities or positions."""
+# Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
+# MUJOCO_LOG.TXT in the working folder) would only clutter a sweep's output.
+mujoco.set_mju_user_warning(lambda message: None)
 
 
 @dataclass

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 import mujoco
+import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 from tqdm import tqdm
@@ -77,12 +78,14 @@ def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
     series = None
     try:
         recording = run_episode(spec.point.scenario, spec.policy)
-        row.update(compute_metrics(recording))
         row["status"], row["error"] = recording.status, recording.error
-        series = timeseries(recording)
+        with np.errstate(all="ignore"):  # a diverged recording holds NaNs; its metrics may too
+            row.update(compute_metrics(recording))
+            series = timeseries(recording)
     except Exception as exc:  # a failing run is stored, not raised: the sweep goes on
         row["status"] = "error"
-        row["error"] = f"{type(exc).__name__}: {exc} | " + traceback.format_exc(limit=-1).strip().splitlines()[-2].strip()
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        row["error"] = f"{type(exc).__name__}: {exc} (at {Path(where.filename).name}:{where.lineno})"
     row["wall_time_s"] = time.perf_counter() - started
     store.write_run(results, row["run_id"], spec.resolved() | {"point": spec.point.label}, row, series)
     return row

@@ -160,7 +160,10 @@ def _read_yaml(path: Path) -> list[CommentedMap]:
     except MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None
-        raise ScenarioError(path, line, "", f"malformed YAML: {exc.problem or exc.context}") from None
+        reason = f"malformed YAML: {exc.problem or exc.context}"
+        if exc.context and exc.context_mark and exc.problem:
+            reason += f" ({exc.context} started at line {exc.context_mark.line + 1})"
+        raise ScenarioError(path, line, "", reason) from None
     docs = [doc for doc in docs if doc is not None]
     if not docs:
         raise ScenarioError(path, 1, "", "empty file: expected a scenario mapping")
@@ -230,11 +233,20 @@ def _points(path: Path, doc: CommentedMap, spec: ScenarioFile) -> list[ScenarioP
             try:
                 scenario = Scenario.model_validate(data)
             except ValidationError as exc:
-                bad = ".".join(str(p) for p in exc.errors()[0]["loc"])
-                key = next((k for k in swept if bad.startswith(k)), None)
-                raise _validation_error(path, doc, exc, _origin(spec, key) if key else ()) from None
+                raise _sweep_error(path, doc, spec, swept, exc) from None
             points.append(ScenarioPoint(scenario, swept, str(path)))
     return points
+
+
+def _sweep_error(path: Path, doc: CommentedMap, spec: ScenarioFile, swept: dict[str, Any], exc: ValidationError) -> ScenarioError:
+    """The error of a swept value, located at the sweep (or randomize) entry that produced it."""
+    for err in exc.errors():
+        bad = ".".join(str(p) for p in err["loc"])
+        key = next((k for k in swept if bad.startswith(k)), None)
+        if key is not None:
+            single = ValidationError.from_exception_data(exc.title, [err])  # type: ignore[list-item]
+            return _validation_error(path, doc, single, _origin(spec, key))
+    return _validation_error(path, doc, exc)
 
 
 def _origin(spec: ScenarioFile, key: str) -> tuple[str, str]:

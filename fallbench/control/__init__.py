@@ -1,0 +1,1 @@
+"""Whole-body control: Pinocchio model terms, tasks, and the adaptive-gain QP."""

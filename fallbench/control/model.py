@@ -1,0 +1,52 @@
+"""Pinocchio model of the simulated robot, and the map from MuJoCo's state to Pinocchio's.
+
+Joint order differs (MuJoCo: file order; Pinocchio: branches sorted), so joints are mapped by
+name. The free joint differs too: MuJoCo's qpos quaternion is (w, x, y, z) and its linear velocity
+is in the world frame; Pinocchio's is (x, y, z, w) and its base velocity is in the base frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from fallbench.world import World
+
+
+@dataclass
+class PinocchioModel:
+    model: pin.Model
+    data: pin.Data
+    mj_to_pin_q: np.ndarray  # for each Pinocchio joint q index (after the base): MuJoCo qpos index
+    mj_to_pin_v: np.ndarray  # likewise for velocities
+    actuated_v: np.ndarray  # Pinocchio v index of each MuJoCo actuator
+
+    def state(self, qpos_mj: np.ndarray, qvel_mj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) in Pinocchio's convention from MuJoCo's qpos, qvel."""
+        q = np.empty(self.model.nq)
+        v = np.empty(self.model.nv)
+        q[:3] = qpos_mj[:3]
+        q[3:6], q[6] = qpos_mj[4:7], qpos_mj[3]
+        rotation = pin.Quaternion(qpos_mj[3], *qpos_mj[4:7]).toRotationMatrix()
+        v[:3] = rotation.T @ qvel_mj[:3]
+        v[3:6] = qvel_mj[3:6]  # MuJoCo's free-joint angular velocity is already in the body frame
+        q[7:] = qpos_mj[self.mj_to_pin_q]
+        v[6:] = qvel_mj[self.mj_to_pin_v]
+        return q, v
+
+
+def build_pinocchio(world: World) -> PinocchioModel:
+    robot = world.robot
+    model = pin.buildModelFromXML(robot.urdf_text(), pin.JointModelFreeFlyer())
+    mj = world.model
+    q_map, v_map = [], []
+    for joint_id in range(2, model.njoints):  # 0 = universe, 1 = free flyer
+        name = model.names[joint_id]
+        mj_joint = mj.joint(name).id
+        q_map.append(mj.jnt_qposadr[mj_joint])
+        v_map.append(mj.jnt_dofadr[mj_joint])
+        model.armature[model.joints[joint_id].idx_v] = mj.dof_armature[mj.jnt_dofadr[mj_joint]]
+    actuated = np.array([model.joints[model.getJointId(name)].idx_v for name in world.joint_names])
+    return PinocchioModel(model, model.createData(), np.array(q_map), np.array(v_map), actuated)

@@ -1,0 +1,56 @@
+"""The simulated falls against physics that can be computed by hand."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from fallbench.episode import run_episode
+from fallbench.metrics import compute_metrics
+from fallbench.scenario import Scenario
+from fallbench.world import build_world, initial_state
+
+
+def test_drop_impact_time_and_speed_match_free_fall(drop_scenario: Scenario) -> None:
+    row = compute_metrics(run_episode(drop_scenario, "stiff"))
+    g, h = 9.81, 1.0
+    assert abs(row["impact_time"] - math.sqrt(2 * h / g)) < 0.005  # s, within one control step
+    assert abs(row["impact_speed"] - math.sqrt(2 * g * h)) < 0.05  # m/s
+    assert row["fall_reason"] == "freefall" and row["fall_time"] == 0.0
+    assert set(row["first_contact_bodies"].split(",")) == {"leg_left_6_link", "leg_right_6_link"}
+
+
+def test_standing_robot_reads_gravity_and_its_weight() -> None:
+    scenario = Scenario(name="stand", duration=0.5)
+    world = build_world(scenario)
+    data = initial_state(world, scenario)
+    for _ in range(500):
+        mujoco.mj_step(world.model, data)
+    mass = world.model.body_subtreemass[world.root_body]
+    acc = world.sensor(data.sensordata, "imu_acc")
+    assert abs(np.linalg.norm(acc) - 9.81) < 0.2 and acc[2] > 9.5  # specific force, z up, at rest
+    assert abs(np.linalg.norm(world.sensor(data.sensordata, "contact:total")[1:4]) - mass * 9.81) < 0.02 * mass * 9.81
+
+
+def test_zero_gains_reach_the_knee_stop_and_stiff_does_not(drop_scenario: Scenario) -> None:
+    stiff = compute_metrics(run_episode(drop_scenario, "stiff"))
+    zero = compute_metrics(run_episode(drop_scenario, "zero"))
+    assert stiff["knee_limit_margin"] > 0.3
+    assert zero["knee_limit_margin"] < 0.0
+    assert zero["fell"] and not stiff["fell"]
+
+
+def test_push_direction_moves_the_robot_that_way() -> None:
+    for direction, axis, sign in ((0, 0, 1), (90, 1, 1), (180, 0, -1)):
+        scenario = Scenario(name="p", duration=0.6, push={"force": 200, "duration": 0.2, "start": 0.0, "direction": direction})
+        rec = run_episode(scenario, "stiff")
+        assert sign * (rec.qpos[-1, axis] - rec.qpos[0, axis]) > 0.02
+
+
+def test_diverging_run_is_flagged() -> None:
+    scenario = Scenario(name="boom", duration=0.3, push={"force": 1e9, "duration": 0.05, "start": 0.0})
+    rec = run_episode(scenario, "stiff")
+    assert rec.status == "diverged" and "BADQ" in rec.error
+    assert rec.steps < 300
