@@ -20,7 +20,7 @@ from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand, write_servo
 from fallbench.world import World, build_world, initial_state
 
-DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
+DIVERGENCE_WARNINGS = [int(mujoco.mjtWarning.mjWARN_BADQACC), int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADQPOS)]
 
 
 # Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
@@ -80,7 +80,6 @@ def run_episode(scenario: Scenario, policy_name: str) -> Recording:
     n_control = math.ceil(scenario.duration / scenario.control_dt - 1e-9)
     per_control = scenario.physics_steps_per_control
     n_steps = n_control * per_control
-    rec_time = np.zeros(n_steps)
     rec_sensor = np.zeros((n_steps, model.nsensordata))
     rec_qpos = np.zeros((n_steps, model.nq))
     rec_qvel = np.zeros((n_steps, model.nv))
@@ -98,47 +97,56 @@ def run_episode(scenario: Scenario, policy_name: str) -> Recording:
     mujoco.mj_forward(model, data)
     sensor_row = data.sensordata.copy()
     status, error, step = "ok", "", 0
+    # Views into MjData bound once: each attribute access would build a new array wrapper.
+    qpos, qvel, sensordata, actuator_force = data.qpos, data.qvel, data.sensordata, data.actuator_force
 
+    def recent_touching() -> set[str]:
+        return _touching(world, rec_sensor[max(step - per_control, 0) : step] if step else sensor_row[None])
+
+    written: ServoCommand | None = None
     for k in range(n_control):
-        t = data.time
-        mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
-        imu = world.sensor(sensor_row, "imu_acc")
-        touching = _touching(world, rec_sensor[max(step - per_control, 0) : step] if step else sensor_row[None])
-        if fall.update(t, torso_rotation.reshape(3, 3), imu):
-            impact.start(touching if fall.time == t else impact.support or set())
-        q, qd = data.qpos[world.qpos_adr].copy(), data.qvel[world.qvel_adr].copy()
-        if impact.update(t, touching):
+        t = k * scenario.control_dt
+        if fall.time is None:
+            mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
+            if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
+                impact.start(recent_touching())
+        elif impact.time is None:
+            impact.update(t, recent_touching())
+        if impact.time is not None:
+            q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
             if q_ref_impact is None:
                 q_ref_impact = q  # configuration just before impact (002 Sec. V)
             started = time.perf_counter()
-            observation = Observation(t, data.qpos.copy(), data.qvel.copy(), q, qd, touching,
-                                      list(data.contact[: data.ncon]))
+            touching = recent_touching() if policy.needs_contacts else set()
+            observation = Observation(t, qpos.copy(), qvel.copy(), q, qd, touching, data)
             command = policy.after_impact(observation, q_ref_impact)
             controller_ms[k] = (time.perf_counter() - started) * 1e3
-        write_servo(model, data, command)
+        if command is not written:
+            write_servo(model, data, command)
+            written = command
         gains[:, k] = command.kp, command.kd, command.q_ref, command.qd_ref
         if push is not None:
             active = scenario.push.start <= t < scenario.push.start + scenario.push.duration
             data.xfrc_applied[push[0]] = push[1] if active else 0.0
 
         for _ in range(per_control):
-            rec_time[step] = data.time
-            rec_qpos[step] = data.qpos
-            rec_qvel[step] = data.qvel
+            rec_qpos[step] = qpos
+            rec_qvel[step] = qvel
             mujoco.mj_step(model, data)
             # sensors and actuator forces are computed inside the step, from the state before it
-            rec_sensor[step] = data.sensordata
-            rec_force[step] = data.actuator_force
+            rec_sensor[step] = sensordata
+            rec_force[step] = actuator_force
             step += 1
         sensor_row = rec_sensor[step - 1]
-        if any(data.warning[w].number for w in DIVERGENCE_WARNINGS) or not np.isfinite(data.qacc).all():
+        warnings = data.warning.number
+        if warnings[DIVERGENCE_WARNINGS].any() or not np.isfinite(data.qacc).all():
             status = "diverged"
-            error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if data.warning[w].number) or "non-finite state"
+            error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if warnings[w]) or "non-finite state"
             break
 
     held = np.repeat(gains[:, : k + 1], per_control, axis=1)[:, :step]
     return Recording(
-        world=world, scenario=scenario, time=rec_time[:step], sensordata=rec_sensor[:step],
+        world=world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=rec_sensor[:step],
         qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
         fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,

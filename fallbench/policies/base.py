@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import mujoco
 import numpy as np
 
 from fallbench.servo import ServoCommand
@@ -24,13 +25,14 @@ class Observation:
     q: np.ndarray  # actuated joints, rad
     qd: np.ndarray  # actuated joints, rad/s
     touching: set[str]  # robot bodies in contact with the environment now
-    contacts: list[Any] = field(default_factory=list)  # simulator contact points, for QP policies
+    data: mujoco.MjData  # the simulator's data, read-only, for policies that need contact points
 
 
 class GainPolicy(ABC):
     """Decides K, B, q_ref, qd_ref after impact. Before impact every policy uses the defaults."""
 
     name: str = ""
+    needs_contacts: bool = False  # whether `Observation.touching` must be filled after impact
 
     defaults: dict[str, Any] = {}
 
@@ -57,5 +59,17 @@ class GainPolicy(ABC):
         return {}
 
 
-def hold(q_ref: np.ndarray) -> np.ndarray:
-    return np.zeros_like(q_ref)
+class FixedGainPolicy(GainPolicy):
+    """A policy that sets constant gains at impact and holds q_ref."""
+
+    command: ServoCommand | None = None
+
+    @abstractmethod
+    def impact_gains(self) -> tuple[np.ndarray, np.ndarray]:
+        """K (Nm/rad) and B (Nms/rad) per actuated joint from the impact on."""
+
+    def after_impact(self, observation: Observation, q_ref: np.ndarray) -> ServoCommand:
+        if self.command is None:  # built once: the servo is rewritten only when the command changes
+            kp, kd = self.impact_gains()
+            self.command = ServoCommand(kp, kd, q_ref, np.zeros_like(q_ref))
+        return self.command

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from fallbench.policies.base import GainPolicy, Observation, hold
-from fallbench.servo import ServoCommand
+from fallbench.policies.base import FixedGainPolicy
 
 
-class StiffPolicy(GainPolicy):
+class StiffPolicy(FixedGainPolicy):
     name = "stiff"
 
-    def after_impact(self, observation: Observation, q_ref: np.ndarray) -> ServoCommand:
-        return ServoCommand(self.default_kp, self.default_kd, q_ref, hold(q_ref))
+    def impact_gains(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.default_kp, self.default_kd
