@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from fallbench.policies.adaptive_qp import AdaptiveQPPolicy
 from fallbench.policies.base import GainPolicy, Observation
 from fallbench.policies.oneshot import OneshotPolicy
 from fallbench.policies.stiff import StiffPolicy
@@ -13,6 +14,7 @@ POLICIES: dict[str, type[GainPolicy]] = {
     "stiff": StiffPolicy,
     "oneshot": OneshotPolicy,
     "zero": ZeroPolicy,
+    "adaptive_qp": AdaptiveQPPolicy,
 }
 
 

@@ -1,0 +1,77 @@
+"""Contact points of the robot with the environment, as the adaptive-gain QP needs them.
+
+The points come from the simulator's contact list (the robot's contact candidates would do on
+hardware). For each: position, normal pointing into the robot, a 4-generator linearized friction
+cone, the point Jacobian and drift J_dot q_dot from Pinocchio, and the point's velocity.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from fallbench.control.model import PinocchioModel
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+@dataclass
+class ContactPoint:
+    body: str
+    position: np.ndarray  # m, world
+    normal: np.ndarray  # unit, world, from the environment into the robot
+    generators: np.ndarray  # (3, 4) unit friction-cone edges: force = generators @ lambda
+
+
+@dataclass
+class ContactKinematics:
+    jacobian: np.ndarray  # (3 n, nv) point Jacobians, Pinocchio velocity coordinates
+    drift: np.ndarray  # (3 n,) J_dot q_dot, m/s^2
+    velocity: np.ndarray  # (3 n,) m/s
+
+
+def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.ndarray, mu: float) -> np.ndarray:
+    edges = np.stack([normal + mu * tangent1, normal - mu * tangent1, normal + mu * tangent2, normal - mu * tangent2], axis=1)
+    return edges / np.linalg.norm(edges, axis=0)
+
+
+def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: float) -> list[ContactPoint]:
+    """Contacts between a robot body and the world's static geoms (floor, obstacles)."""
+    points = []
+    for i in range(data.ncon):
+        contact = data.contact[i]
+        body1, body2 = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
+        if (body1 == 0) == (body2 == 0):  # robot self-contact, or world-world
+            continue
+        frame = contact.frame.reshape(3, 3)
+        sign = 1.0 if body1 == 0 else -1.0  # MuJoCo's normal points from geom1 to geom2
+        robot_body = body2 if body1 == 0 else body1
+        normal = sign * frame[0]
+        points.append(ContactPoint(model.body(robot_body).name, contact.pos.copy(), normal,
+                                   friction_generators(normal, frame[1], frame[2], friction)))
+    return points
+
+
+def contact_kinematics(P: PinocchioModel, points: list[ContactPoint]) -> ContactKinematics:
+    """Point Jacobians, drifts and velocities; needs forwardKinematics(q, v, 0) and
+    computeJointJacobians(q) done on P.data."""
+    model, data = P.model, P.data
+    n = len(points)
+    jacobian = np.zeros((3 * n, model.nv))
+    drift = np.zeros(3 * n)
+    velocity = np.zeros(3 * n)
+    for i, point in enumerate(points):
+        frame = model.getFrameId(point.body)
+        J6 = pin.getFrameJacobian(model, data, frame, LWA)
+        offset = point.position - data.oMf[frame].translation
+        twist = pin.getFrameVelocity(model, data, frame, LWA)
+        acc = pin.getFrameClassicalAcceleration(model, data, frame, LWA)
+        omega = twist.angular
+        rows = slice(3 * i, 3 * i + 3)
+        jacobian[rows] = J6[:3] - pin.skew(offset) @ J6[3:]
+        velocity[rows] = twist.linear + np.cross(omega, offset)
+        drift[rows] = acc.linear + np.cross(acc.angular, offset) + np.cross(omega, np.cross(omega, offset))
+    return ContactKinematics(jacobian, drift, velocity)

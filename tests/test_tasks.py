@@ -1,0 +1,95 @@
+"""Task and contact-point Jacobians and drifts against finite differences (Pinocchio model of TALOS)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from fallbench.control.contacts import ContactPoint, contact_kinematics, friction_generators
+from fallbench.control.model import PinocchioModel, build_pinocchio
+from fallbench.control.tasks.com import ComTask
+from fallbench.control.tasks.posture import PostureTask
+from fallbench.scenario import Scenario
+from fallbench.world import build_world
+
+EPS = 1e-6
+
+
+@pytest.fixture(scope="module")
+def P() -> PinocchioModel:
+    return build_pinocchio(build_world(Scenario(name="t", duration=1.0)))
+
+
+def _state(P: PinocchioModel, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    q = pin.randomConfiguration(P.model, -np.ones(P.model.nq), np.ones(P.model.nq))
+    q[7:] = np.clip(q[7:], P.model.lowerPositionLimit[7:], P.model.upperPositionLimit[7:])
+    return q, rng.normal(size=P.model.nv)
+
+
+def _point(P: PinocchioModel, q: np.ndarray) -> ContactPoint:
+    pin.framesForwardKinematics(P.model, P.data, q)
+    frame = P.model.getFrameId("leg_right_6_link")
+    position = P.data.oMf[frame].act(np.array([0.1, -0.05, -0.1]))
+    normal = np.array([0.0, 0.0, 1.0])
+    return ContactPoint("leg_right_6_link", position, normal, friction_generators(normal, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), 0.7))
+
+
+def _point_position(P: PinocchioModel, q: np.ndarray, local: np.ndarray) -> np.ndarray:
+    pin.framesForwardKinematics(P.model, P.data, q)
+    return P.data.oMf[P.model.getFrameId("leg_right_6_link")].act(local)
+
+
+def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
+    q, v = _state(P)
+    point = _point(P, q)
+    frame = P.model.getFrameId("leg_right_6_link")
+    local = P.data.oMf[frame].actInv(point.position)
+    pin.computeJointJacobians(P.model, P.data, q)
+    pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
+    pin.updateFramePlacements(P.model, P.data)
+    kin = contact_kinematics(P, [point])
+    # velocity = J v, and J against finite differences of the point position along v
+    fd_velocity = (_point_position(P, pin.integrate(P.model, q, v * EPS), local) - _point_position(P, q, local)) / EPS
+    np.testing.assert_allclose(kin.jacobian @ v, fd_velocity, atol=1e-4)
+    np.testing.assert_allclose(kin.velocity, kin.jacobian @ v, atol=1e-9)
+    # drift = d/dt (J) v: finite difference of J(q + v dt) v
+    q_next = pin.integrate(P.model, q, v * EPS)
+    pin.computeJointJacobians(P.model, P.data, q_next)
+    pin.forwardKinematics(P.model, P.data, q_next, v, np.zeros(P.model.nv))
+    pin.updateFramePlacements(P.model, P.data)
+    moved = ContactPoint(point.body, P.data.oMf[frame].act(local), point.normal, point.generators)
+    fd_drift = (contact_kinematics(P, [moved]).velocity - kin.velocity) / EPS
+    np.testing.assert_allclose(kin.drift, fd_drift, atol=2e-3 * max(1.0, np.abs(fd_drift).max()))
+
+
+def test_com_jacobian_and_drift(P: PinocchioModel) -> None:
+    q, v = _state(P, 1)
+    com, vcom, drift = ComTask.state(P.model, P.data, q, v)
+    J = ComTask.jacobian(P.model, P.data, q)
+    q_next = pin.integrate(P.model, q, v * EPS)
+    com_next, vcom_next, _ = ComTask.state(P.model, P.data, q_next, v)
+    np.testing.assert_allclose(J @ v, (com_next - com) / EPS, atol=1e-4)
+    np.testing.assert_allclose(vcom, J @ v, atol=1e-9)
+    np.testing.assert_allclose(drift, (vcom_next - vcom) / EPS, atol=1e-3)
+    assert np.allclose(ComTask(com).error(com), 0.0)
+
+
+def test_posture_jacobian_selects_joint_velocities(P: PinocchioModel) -> None:
+    q, v = _state(P, 2)
+    target = np.zeros(len(P.actuated_v))
+    task = PostureTask(target, P.actuated_v, P.model.nv)
+    q_joints = q[7:][P.actuated_v - 6]
+    q_next = pin.integrate(P.model, q, v * EPS)
+    fd = (task.error(q_next[7:][P.actuated_v - 6]) - task.error(q_joints)) / EPS
+    np.testing.assert_allclose(task.jacobian() @ v, fd, atol=1e-6)
+    np.testing.assert_array_equal(task.drift(), 0.0)
+
+
+def test_friction_generators_are_unit_and_inside_the_cone() -> None:
+    n, t1, t2 = np.eye(3)[2], np.eye(3)[0], np.eye(3)[1]
+    G = friction_generators(n, t1, t2, 0.5)
+    np.testing.assert_allclose(np.linalg.norm(G, axis=0), 1.0)
+    tangential = np.linalg.norm(G[:2], axis=0)
+    np.testing.assert_allclose(tangential / G[2], 0.5)  # on the cone's edge: |f_t| = mu f_n
