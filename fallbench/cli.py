@@ -75,7 +75,7 @@ def _same(swept: object, text: str) -> bool:
 @run_app.command("sweep")
 def run_sweep_command(
     files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push and obstacle scenarios)."),
-    policies: str = typer.Option("stiff,oneshot,zero", help="Comma-separated gain policies."),
+    policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
