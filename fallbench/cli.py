@@ -150,6 +150,46 @@ def export_command(
     typer.echo(f"wrote {out} ({chosen.label})")
 
 
+@app.command("check")
+def check_command(
+    suite: list[Path] = typer.Option([Path("scenarios/ci.yaml")], help="Scenario files of the regression suite."),
+    baseline: Path = typer.Option(Path("baselines/ci.csv"), help="Baseline metrics (CSV)."),
+    tolerances: Path = typer.Option(Path("baselines/tolerances.yaml"), help="Per-metric tolerances (YAML)."),
+    policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
+    results: Path = typer.Option(Path("results/ci"), help="Results store for the suite's runs."),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes."),
+    update: bool = typer.Option(False, help="Rewrite the baseline from this run instead of comparing."),
+) -> None:
+    """Run the suite (or reuse its stored runs) and compare every metric with the baseline.
+
+    Exit 0 with a one-line summary when nothing regressed; exit 1 with a table of regressions
+    (a NaN, a missing run, a new failure or a metric outside tolerance) otherwise.
+    """
+    from fallbench.regress import baseline_frame, compare, load_tolerances, read_baseline, write_baseline
+    from fallbench.runner import expand, run_sweep
+
+    try:
+        limits = load_tolerances(tolerances)
+    except (OSError, ValueError) as exc:
+        fail(f"{tolerances}: {exc}")
+    table = run_sweep(expand(_load(suite), _policies(policies), ["none"]), results, jobs=jobs, progress=False)
+    now = baseline_frame(table, limits)
+    if update:
+        write_baseline(now, baseline)
+        typer.echo(f"baseline updated: {baseline} ({len(now)} cases, {len(limits)} metrics)")
+        return
+    if not baseline.exists():
+        fail(f"{baseline}: no baseline (create it with `fallbench check --update`)")
+    regressions = compare(read_baseline(baseline), now, limits)
+    if regressions:
+        typer.echo(f"{'case':<40} {'metric':<24} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
+        for r in regressions:
+            typer.echo(f"{r.case:<40} {r.metric:<24} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}")
+        typer.echo(f"{len(regressions)} regression(s) against {baseline}", err=True)
+        raise typer.Exit(1)
+    typer.echo(f"check ok: {len(now)} cases x {len(limits)} metrics within tolerance of {baseline}")
+
+
 def main() -> None:
     app()
 if __name__ == "__main__":

@@ -1,0 +1,79 @@
+"""`fallbench check`: passes on an unchanged run, fails on a perturbed metric, a NaN, a missing run, a new failure."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from fallbench.cli import app
+from fallbench.regress import read_baseline, write_baseline
+
+SUITE = """name: tiny
+duration: 0.7
+initial: {height: 0.3}
+"""
+TOLERANCES = Path(__file__).resolve().parents[1] / "baselines" / "tolerances.yaml"
+
+
+@pytest.fixture
+def checked(tmp_path: Path):
+    suite = tmp_path / "suite.yaml"
+    suite.write_text(SUITE)
+    baseline = tmp_path / "baseline.csv"
+
+    def check(*extra: str):
+        return CliRunner().invoke(app, ["check", "--suite", str(suite), "--baseline", str(baseline), "--tolerances",
+                                        str(TOLERANCES), "--policies", "stiff,zero", "--results", str(tmp_path / "r"),
+                                        "--jobs", "1", *extra])
+
+    result = check("--update")
+    assert result.exit_code == 0 and "baseline updated" in result.output
+    return check, baseline
+
+
+def _edit_suite(baseline: Path, text: str) -> None:
+    (baseline.parent / "suite.yaml").write_text(text)
+
+
+def test_unchanged_run_passes(checked) -> None:
+    check, _ = checked
+    result = check()
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("check ok: 2 cases")
+
+
+def test_perturbed_metric_fails_with_a_table(checked) -> None:
+    check, baseline = checked
+    frame = read_baseline(baseline)
+    frame.loc[frame.policy == "zero", "imu_peak_z"] *= 1.5
+    write_baseline(frame, baseline)
+    result = check()
+    assert result.exit_code == 1
+    assert "imu_peak_z" in result.output and "zero" in result.output and "tolerance" in result.output
+
+
+def test_nan_now_fails(checked) -> None:
+    check, baseline = checked
+    _edit_suite(baseline, SUITE.replace("duration: 0.7", "duration: 0.05"))  # ends before the impact
+    result = check()
+    assert result.exit_code == 1
+    assert "impact_time" in result.output and "nan" in result.output
+
+
+def test_missing_run_fails(checked) -> None:
+    check, baseline = checked
+    frame = read_baseline(baseline)
+    extra = frame.iloc[[0]].assign(point="gone#s0")
+    write_baseline(pd.concat([frame, extra], ignore_index=True), baseline)
+    result = check()
+    assert result.exit_code == 1 and "gone#s0" in result.output and "missing" in result.output
+
+
+def test_new_failure_fails(checked) -> None:
+    check, baseline = checked
+    _edit_suite(baseline, SUITE + "push: {force: 1.0e+9, duration: 0.05, start: 0.0}\n")
+    result = check()
+    assert result.exit_code == 1 and "status" in result.output and "diverged" in result.output
