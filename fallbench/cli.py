@@ -150,6 +150,61 @@ def export_command(
     typer.echo(f"wrote {out} ({chosen.label})")
 
 
+@app.command("report")
+def report_command(
+    results: Path = typer.Option(Path("results"), help="Results store folder."),
+    out: Path = typer.Option(Path("reports"), help="Folder for figures (PNG, SVG), index.html and summary.md."),
+    progress: bool = typer.Option(True, help="Show a progress bar."),
+) -> None:
+    """Draw the papers' figures per drop/push point, sweep comparisons and the claims table."""
+    from fallbench.report import build_report
+
+    try:
+        paths = build_report(results, out, progress=progress and sys.stderr.isatty())
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    typer.echo(f"wrote {len(paths)} files; open {out}/index.html (summary in {out}/summary.md)")
+
+
+@app.command("results")
+def results_command(
+    results: Path = typer.Option(Path("results"), help="Results store folder."),
+    where: Optional[str] = typer.Option(None, help="pandas query, e.g. \"policy == 'zero' and imu_peak_z > 300\"."),
+    columns: str = typer.Option("point,policy,status,imu_peak_z,knee_limit_margin,torque_demand_ratio_max,fell",
+                                help="Comma-separated columns."),
+    fmt: str = typer.Option("table", "--format", help="table, csv or json."),
+    failed: bool = typer.Option(False, help="Only failed or diverged runs, with their errors."),
+) -> None:
+    """List runs and metrics from the results store."""
+    from fallbench.store import load_metrics
+
+    try:
+        table = load_metrics(results)
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    if failed:
+        table = table[table.status != "ok"]
+        columns = "point,policy,status,error"
+    if where:
+        try:
+            table = table.query(where)
+        except Exception as exc:  # pandas raises many types for a bad expression
+            fail(f"--where {where!r}: {exc}")
+    names = [c.strip() for c in columns.split(",") if c.strip()]
+    unknown = [c for c in names if c not in table.columns]
+    if unknown:
+        fail(f"--columns: unknown column(s) {', '.join(unknown)}; see the README for the schema")
+    table = table[names]
+    if fmt == "csv":
+        typer.echo(table.to_csv(index=False), nl=False)
+    elif fmt == "json":
+        typer.echo(table.to_json(orient="records"))
+    elif fmt == "table":
+        typer.echo(table.to_string(index=False) if len(table) else "(no runs match)")
+    else:
+        fail(f"--format {fmt!r}: expected table, csv or json")
+
+
 @app.command("check")
 def check_command(
     suite: list[Path] = typer.Option([Path("scenarios/ci.yaml")], help="Scenario files of the regression suite."),

@@ -1,0 +1,86 @@
+"""`fallbench report`: the papers' figures, sweep comparisons, a claims table, index.html and summary.md."""
+
+from __future__ import annotations
+
+import base64
+import html
+from pathlib import Path
+
+import pandas as pd
+from tqdm import tqdm
+
+from fallbench import store
+from fallbench.report.claims import claims_table
+from fallbench.report.figures import RIGHT_LEG_PITCH, gains_figure, imu_figure, knee_figure, torque_figure
+from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
+
+TALOS_KNEE_LIMITS = (0.0, 2.618)  # rad, from the URDF (leg_*_4_joint)
+
+
+def _torque_limits() -> dict[str, float]:
+    from fallbench.scenario import Scenario
+    from fallbench.world import build_world
+
+    world = build_world(Scenario(name="limits", duration=1.0))
+    return {j: float(world.torque_limit[world.joint_names.index(j)]) for j in RIGHT_LEG_PITCH.values()}
+
+
+def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> dict[str, list[Path]]:
+    """Figs. 4, 5, 6a, 6b for each drop or push scenario point with more than one policy."""
+    figures: dict[str, list[Path]] = {}
+    ok = runs[(runs.status == "ok") & runs.scenario.str.contains("drop|push")]
+    limits = _torque_limits()
+    points = [(point, group) for point, group in ok.groupby("point") if group.policy.nunique() > 1]
+    for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):
+        series = {row.policy: store.load_timeseries(results, row.run_id) for row in group.itertuples()}
+        stem = "".join(c if c.isalnum() else "_" for c in point).strip("_")
+        paths = imu_figure(series, group, point, out, f"fig6a_{stem}")
+        paths += knee_figure(series, group, TALOS_KNEE_LIMITS, point, out, f"fig6b_{stem}")
+        paths += torque_figure(series, group, limits, point, out, f"fig4_{stem}")
+        if "adaptive_qp" in series:
+            impact = group.loc[group.policy == "adaptive_qp", "impact_time"].iloc[0]
+            paths += gains_figure(series["adaptive_qp"], impact, point, out, f"fig5_{stem}")
+        figures[point] = paths
+    return figures
+
+
+def _img(path: Path) -> str:
+    data = base64.b64encode(path.read_bytes()).decode()
+    return f'<img src="data:image/png;base64,{data}" alt="{html.escape(path.stem)}" style="max-width:100%">'
+
+
+def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
+    runs = store.load_metrics(results)
+    if runs.empty:
+        raise FileNotFoundError(f"{results}: the results store has no runs")
+    out.mkdir(parents=True, exist_ok=True)
+    figures = paper_figures(runs, results, out, progress)
+    sweep_paths = distribution_figure(runs[runs.status == "ok"], out) + parameter_figures(runs[runs.status == "ok"], out)
+    medians = median_table(runs)
+    claims = claims_table(runs)
+    failed = runs[runs.status != "ok"][["point", "policy", "status", "error"]]
+
+    summary = ["# fallbench report", "", f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.", "",
+               "## Claims of 002 Sec. VI", "", claims.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
+               "## Medians per scenario and policy", "", medians.round(3).to_markdown(), ""]
+    if len(failed):
+        summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
+    summary += ["## Files", ""] + [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
+    summary += [f"- `{p.name}`" for p in sweep_paths if p.suffix == ".png"]
+    (out / "summary.md").write_text("\n".join(summary) + "\n")
+
+    body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
+            f"{len(failed)} failed or diverged.</p>", "<h2>Claims of 002 Sec. VI</h2>",
+            claims.to_html(index=False) if len(claims) else "<p>no drop runs</p>",
+            "<h2>Medians per scenario and policy</h2>", medians.round(3).to_html(),
+            "<h2>Sweep comparisons</h2>"] + [_img(p) for p in sweep_paths if p.suffix == ".png"]
+    for point, paths in figures.items():
+        body += [f"<h2>{html.escape(point)}</h2>"] + [_img(p) for p in paths if p.suffix == ".png"]
+    if len(failed):
+        body += ["<h2>Failed runs</h2>", failed.to_html(index=False)]
+    page = ("<!doctype html><html><head><meta charset='utf-8'><title>fallbench report</title>"
+            "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
+            "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px}</style></head><body>"
+            + "\n".join(body) + "</body></html>")
+    (out / "index.html").write_text(page)
+    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths

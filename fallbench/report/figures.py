@@ -1,0 +1,93 @@
+"""Figures of 002 Sec. VI for one scenario point: IMU z (Fig. 6a), right knee (Fig. 6b),
+right-leg pitch torques (Fig. 4) and the adaptive gains K, B (Fig. 5)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import pandas as pd
+
+from fallbench.report.style import colour, ordered
+
+RIGHT_LEG_PITCH = {"hip": "leg_right_3_joint", "knee": "leg_right_4_joint", "ankle": "leg_right_5_joint"}
+
+
+def _impact_line(ax, impact: float) -> None:
+    if pd.notna(impact):
+        ax.axvline(impact, color="black", linestyle="--", linewidth=0.8, label="impact")
+
+
+def _save(fig, out: Path, stem: str) -> list[Path]:
+    fig.tight_layout()
+    paths = [out / f"{stem}.png", out / f"{stem}.svg"]
+    for path in paths:
+        fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return paths
+
+
+def imu_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for policy in ordered(series):
+        ts = series[policy]
+        ax.plot(ts.t, ts.imu_acc_z, color=colour(policy), label=policy, linewidth=1.2)
+    _impact_line(ax, rows.impact_time.min())
+    ax.set(xlabel="time (s)", ylabel="waist IMU z acceleration (m/s$^2$)", title=f"{title}: IMU z (cf. 002 Fig. 6a)")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    return _save(fig, out, stem)
+
+
+def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits: tuple[float, float], title: str,
+                out: Path, stem: str) -> list[Path]:
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for policy in ordered(series):
+        ts = series[policy]
+        ax.plot(ts.t, ts[f"q:{RIGHT_LEG_PITCH['knee']}"], color=colour(policy), label=policy, linewidth=1.2)
+    for limit in knee_limits:
+        ax.axhline(limit, color="black", linestyle=":", linewidth=1.0)
+    ax.text(0.01, knee_limits[1], " knee limit", va="bottom", transform=ax.get_yaxis_transform())
+    _impact_line(ax, rows.impact_time.min())
+    ax.set(xlabel="time (s)", ylabel="right knee angle (rad)", title=f"{title}: right knee (cf. 002 Fig. 6b)")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    return _save(fig, out, stem)
+
+
+def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_limits: dict[str, float], title: str,
+                  out: Path, stem: str) -> list[Path]:
+    policies = ordered(series)
+    fig, axes = plt.subplots(len(policies), 1, figsize=(7, 2.2 * len(policies)), sharex=True, squeeze=False)
+    styles = {"hip": "-", "knee": "--", "ankle": ":"}
+    for ax, policy in zip(axes[:, 0], policies):
+        ts = series[policy]
+        for part, joint in RIGHT_LEG_PITCH.items():
+            ax.plot(ts.t, ts[f"tau:{joint}"], color=colour(policy), linestyle=styles[part], label=f"{part} pitch")
+            limit = torque_limits[joint]
+            ax.axhline(limit, color="grey", linestyle="--", linewidth=0.6)
+            ax.axhline(-limit, color="grey", linestyle="--", linewidth=0.6)
+        _impact_line(ax, rows.impact_time.min())
+        ax.set(ylabel="torque (Nm)", title=policy)
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle(f"{title}: right-leg pitch torques, limits dashed (cf. 002 Fig. 4)")
+    return _save(fig, out, stem)
+
+
+def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str) -> list[Path]:
+    fig, (ax_k, ax_b) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    styles = {"hip": "-", "knee": "--", "ankle": ":"}
+    for part, joint in RIGHT_LEG_PITCH.items():
+        ax_k.plot(ts.t, ts[f"K:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
+        ax_b.plot(ts.t, ts[f"B:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
+    for ax in (ax_k, ax_b):
+        _impact_line(ax, impact)
+        ax.grid(alpha=0.3)
+        if pd.notna(impact):
+            ax.set_xlim(max(impact - 0.05, 0), ts.t.max())
+    ax_k.set(ylabel="stiffness K (Nm/rad)", title=f"{title}: adaptive_qp gains, right leg (cf. 002 Fig. 5)")
+    ax_b.set(ylabel="damping B (Nms/rad)", xlabel="time (s)")
+    ax_k.legend(fontsize=8)
+    return _save(fig, out, stem)

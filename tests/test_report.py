@@ -1,0 +1,67 @@
+"""`fallbench report` and `fallbench results` on a small real store; the claims logic on hand-made rows."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+from typer.testing import CliRunner
+
+from fallbench.cli import app
+from fallbench.report.claims import claims_table
+
+SUITE = """name: drop
+duration: 0.8
+initial: {height: 0.5}
+sweep:
+  initial.height: [0.5, 1.0]
+"""
+
+
+def test_report_writes_figures_tables_and_html(tmp_path: Path) -> None:
+    suite = tmp_path / "drop.yaml"
+    suite.write_text(SUITE)
+    results, out = tmp_path / "results", tmp_path / "reports"
+    run = CliRunner().invoke(app, ["run", "sweep", str(suite), "--policies", "stiff,zero", "--results", str(results),
+                                   "--reports", str(out), "--jobs", "1"])
+    assert run.exit_code == 0, run.output
+    result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    for stem in ("fig6a", "fig6b", "fig4"):
+        assert len(list(out.glob(f"{stem}_drop_initial_height_1*.png"))) == 1
+        assert len(list(out.glob(f"{stem}_drop_initial_height_1*.svg"))) == 1
+    assert (out / "sweep_distributions.png").stat().st_size > 10_000
+    assert (out / "sweep_drop_initial_height.png").exists()
+    page = (out / "index.html").read_text()
+    assert page.count("data:image/png;base64,") >= 8 and "zero reaches the knee" in page
+    assert "| 1 m drop" in (out / "summary.md").read_text()
+
+    listed = CliRunner().invoke(app, ["results", "--results", str(results), "--where", "policy == 'zero'",
+                                      "--columns", "point,policy,knee_limit_margin", "--format", "json"])
+    assert listed.exit_code == 0, listed.output
+    rows = json.loads(listed.output)
+    assert len(rows) == 2 and {r["policy"] for r in rows} == {"zero"}
+    bad = CliRunner().invoke(app, ["results", "--results", str(results), "--columns", "nope"])
+    assert bad.exit_code == 2 and "unknown column" in bad.stderr
+
+
+def test_report_without_a_store_is_a_clear_error(tmp_path: Path) -> None:
+    result = CliRunner().invoke(app, ["report", "--results", str(tmp_path / "none"), "--out", str(tmp_path / "r")])
+    assert result.exit_code == 2 and "no results store" in result.stderr
+
+
+def test_claims_verdicts_follow_the_numbers() -> None:
+    rows = pd.DataFrame({
+        "scenario": "drop", "status": "ok", "param:initial.height": 1.0,
+        "policy": ["stiff", "oneshot", "zero", "adaptive_qp"],
+        "imu_peak_z": [300.0, 200.0, 250.0, 100.0],
+        "knee_limit_margin": [0.5, -0.01, -0.02, 0.3],
+        "torque_demand_ratio_max": [5.0, 0.5, 0.4, 0.9],
+        "torque_ratio_max": [1.0, 0.5, 0.4, 0.9],
+    })
+    verdicts = dict(zip(claims_table(rows)["claim (002 Sec. VI)"][:7], claims_table(rows).verdict[:7]))
+    assert set(verdicts.values()) == {"holds"}
+    rows.loc[rows.policy == "adaptive_qp", "knee_limit_margin"] = -0.1
+    table = claims_table(rows)
+    assert table.set_index("claim (002 Sec. VI)").loc["adaptive_qp stays off the knee stop", "verdict"].iloc[0] == "does not hold"
