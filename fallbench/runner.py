@@ -6,9 +6,11 @@ One failing run never stops a sweep: it is stored with status `error` (exception
 
 from __future__ import annotations
 
+import hashlib
 import time
 import traceback
 from dataclasses import dataclass
+from functools import cache
 from importlib.metadata import version
 from pathlib import Path
 from typing import Any, Iterator
@@ -47,9 +49,19 @@ class RunSpec:
         return store.run_id(self.resolved())
 
 
+@cache
+def code_fingerprint() -> str:
+    """Hash of fallbench's own source: a code change gives new run ids, so a resumed sweep never
+    mixes results of older code into the store."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(fallbench.__file__).parent.rglob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
 def versions(robot: str) -> dict[str, str]:
-    return {"fallbench": fallbench.__version__, "mujoco": mujoco.__version__, "pin": version("pin"),
-            "robot": get_robot(robot).version}
+    return {"fallbench": fallbench.__version__, "code": code_fingerprint(), "mujoco": mujoco.__version__,
+            "pin": version("pin"), "proxsuite": version("proxsuite"), "robot": get_robot(robot).version}
 
 
 def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[str]) -> list[RunSpec]:

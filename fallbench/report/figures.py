@@ -27,31 +27,33 @@ def _save(fig, out: Path, stem: str) -> list[Path]:
     return paths
 
 
-def imu_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
+def _policy_lines(series: dict[str, pd.DataFrame], rows: pd.DataFrame, column: str):
+    """One line per policy of one time-series column, impact marked."""
     fig, ax = plt.subplots(figsize=(7, 4))
     for policy in ordered(series):
         ts = series[policy]
-        ax.plot(ts.t, ts.imu_acc_z, color=colour(policy), label=policy, linewidth=1.2)
+        ax.plot(ts.t, ts[column], color=colour(policy), label=policy, linewidth=1.2)
     _impact_line(ax, rows.impact_time.min())
-    ax.set(xlabel="time (s)", ylabel="waist IMU z acceleration (m/s$^2$)", title=f"{title}: IMU z (cf. 002 Fig. 6a)")
-    ax.legend()
+    ax.set_xlabel("time (s)")
     ax.grid(alpha=0.3)
+    return fig, ax
+
+
+def imu_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
+    fig, ax = _policy_lines(series, rows, "imu_acc_z")
+    ax.set(ylabel="waist IMU z acceleration (m/s$^2$)", title=f"{title}: IMU z (cf. 002 Fig. 6a)")
+    ax.legend()
     return _save(fig, out, stem)
 
 
 def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits: tuple[float, float], title: str,
                 out: Path, stem: str) -> list[Path]:
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for policy in ordered(series):
-        ts = series[policy]
-        ax.plot(ts.t, ts[f"q:{RIGHT_LEG_PITCH['knee']}"], color=colour(policy), label=policy, linewidth=1.2)
+    fig, ax = _policy_lines(series, rows, f"q:{RIGHT_LEG_PITCH['knee']}")
     for limit in knee_limits:
         ax.axhline(limit, color="black", linestyle=":", linewidth=1.0)
     ax.text(0.01, knee_limits[1], " knee limit", va="bottom", transform=ax.get_yaxis_transform())
-    _impact_line(ax, rows.impact_time.min())
-    ax.set(xlabel="time (s)", ylabel="right knee angle (rad)", title=f"{title}: right knee (cf. 002 Fig. 6b)")
+    ax.set(ylabel="right knee angle (rad)", title=f"{title}: right knee (cf. 002 Fig. 6b)")
     ax.legend()
-    ax.grid(alpha=0.3)
     return _save(fig, out, stem)
 
 
