@@ -73,8 +73,7 @@ def _push_force(world: World, scenario: Scenario, data: mujoco.MjData) -> tuple[
 def run_episode(scenario: Scenario, policy_name: str) -> Recording:
     world = build_world(scenario)
     model = world.model
-    params = scenario.policy_params.get(policy_name, {})
-    policy: GainPolicy = make_policy(policy_name, world, params)
+    policy: GainPolicy = make_policy(policy_name, world, scenario)
     data = initial_state(world, scenario)
 
     n_control = math.ceil(scenario.duration / scenario.control_dt - 1e-9)

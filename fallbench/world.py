@@ -248,9 +248,9 @@ def _lowest_point(model: mujoco.MjModel, data: mujoco.MjData, body_ids: set[int]
             mesh = model.geom_dataid[g]
             start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
             corners = model.mesh_vert[start : start + count]
-        else:
-            corners = np.zeros((1, 3))
+        else:  # other primitives: their bounding sphere
             lowest = min(lowest, pos[2] - model.geom_rbound[g])
+            continue
         lowest = min(lowest, float((corners @ rot.T + pos)[:, 2].min()))
     return lowest
 
@@ -296,9 +296,17 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
             return f"initial.joints.{name}", f"{value} rad is outside the joint range [{low:.3f}, {high:.3f}] rad"
     if scenario.push and scenario.push.body is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scenario.push.body) < 1:
         return "push.body", f"unknown body {scenario.push.body!r} of robot {robot.name!r}"
-    for key, value in (("push.start", scenario.push.start if scenario.push else 0.0),):
-        if value >= scenario.duration:
-            return key, f"the push starts at {value} s, after the episode ends ({scenario.duration} s)"
+    from fallbench.policies import POLICIES
+
+    for policy, params in scenario.policy_params.items():
+        if policy not in POLICIES:
+            return f"policy_params.{policy}", f"unknown policy (known: {', '.join(POLICIES)})"
+        unknown = sorted(set(params) - set(POLICIES[policy].defaults))
+        if unknown:
+            known = ", ".join(sorted(POLICIES[policy].defaults)) or "none"
+            return f"policy_params.{policy}.{unknown[0]}", f"unknown parameter of {policy!r} (known: {known})"
+    if scenario.push and scenario.push.start >= scenario.duration:
+        return "push.start", f"the push starts at {scenario.push.start} s, after the episode ends ({scenario.duration} s)"
     data = initial_state(world, scenario)
     mujoco.mj_collision(model, data)
     for contact in data.contact[: data.ncon]:

@@ -32,7 +32,7 @@ def post_impact_states():
     def spy(self, observation, q_ref):
         if len(states) < 40:
             states.append((self, observation, q_ref.copy(), observation.qpos.copy(), observation.qvel.copy(),
-                           environment_contacts(self.world.model, observation.data, self.friction)))
+                           environment_contacts(self.world.model, observation.data, self.scenario.friction)))
         return original(self, observation, q_ref)
 
     adaptive.AdaptiveQPPolicy.after_impact = spy
@@ -51,7 +51,7 @@ def test_solution_satisfies_dynamics_torque_limits_and_bounds(post_impact_states
         e, e_dot = q_ref - observation.q, -observation.qd
         terms = model_terms(P, q, v, points)
         problem = build_problem(P, terms, points, q_ref, policy.com_ref, e, e_dot, world.torque_limit,
-                                world.joint_names, policy.dt, QPConfig())
+                                world.joint_names, policy.scenario.control_dt, QPConfig())
         status, solved, _, x = AdaptiveGainQP(QPConfig()).solve(problem)
         assert solved, status
         nv, n_l, s = problem.n_qdd, problem.n_lambda, problem.selected

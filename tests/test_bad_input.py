@@ -28,6 +28,7 @@ CASES = {
     "bad_sweep_key": (GOOD + "sweep:\n  push.colour: [1, 2]\n", 6, "push.colour", "unknown key"),
     "bad_sweep_value": (GOOD + "sweep:\n  initial.height: [0.5, -1]\n", 6, "initial.height", "greater than or equal to 0"),
     "overlap": (GOOD + "obstacles:\n  - {type: box, pos: [0, 0, 0.8], size: [0.5, 0.5, 0.5]}\n", 6, "obstacles.0", "intersects the robot"),
+    "unknown_policy_param": (GOOD + "policy_params:\n  oneshot: {kp_scale: 0.1}\n", 6, "policy_params.oneshot.kp_scale", "unknown parameter"),
     "bad_obstacle_type": (GOOD + "obstacles:\n  - {type: sphere, pos: [2, 0, 0], radius: 1}\n", 6, "obstacles.0", "tag"),
 }
 

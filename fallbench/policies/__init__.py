@@ -18,12 +18,12 @@ POLICIES: dict[str, type[GainPolicy]] = {
 }
 
 
-def make_policy(name: str, world: Any, params: dict[str, Any]) -> GainPolicy:
+def make_policy(name: str, world: Any, scenario: Any) -> GainPolicy:
     try:
         cls = POLICIES[name]
     except KeyError:
         raise ValueError(f"unknown policy {name!r}; known: {', '.join(POLICIES)}") from None
-    return cls(world, params)
+    return cls(world, scenario)
 
 
 __all__ = ["GainPolicy", "Observation", "POLICIES", "make_policy"]

@@ -19,6 +19,7 @@ from fallbench.control.contacts import environment_contacts
 from fallbench.control.model import PinocchioModel, build_pinocchio
 from fallbench.control.tasks.com import ComTask
 from fallbench.policies.base import GainPolicy, Observation
+from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.world import World
 
@@ -37,13 +38,11 @@ class AdaptiveQPPolicy(GainPolicy):
     needs_contacts = True
     defaults: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(QPConfig)}
 
-    def __init__(self, world: World, params: dict[str, Any]) -> None:
-        super().__init__(world, params)
+    def __init__(self, world: World, scenario: Scenario) -> None:
+        super().__init__(world, scenario)
         self.cfg = QPConfig(**self.params)
         self.P = pinocchio_for(world)
         self.qp = AdaptiveGainQP(self.cfg)
-        self.friction = float(world.model.geom_friction[world.model.geom("floor").id, 0])
-        self.dt = 5 * float(world.model.opt.timestep)
         self.com_ref: np.ndarray | None = None
         self.kp, self.kd = self.default_kp.copy(), self.default_kd.copy()
         self.records: list[dict[str, float]] = []
@@ -53,12 +52,12 @@ class AdaptiveQPPolicy(GainPolicy):
         q, v = self.P.state(observation.qpos, observation.qvel)
         if self.com_ref is None:
             self.com_ref = ComTask.state(self.P.model, self.P.data, q, v)[0]
-        points = environment_contacts(self.world.model, observation.data, self.friction)
+        points = environment_contacts(self.world.model, observation.data, self.scenario.friction)
         record: dict[str, float] = {"t": observation.t, "qp_contacts": len(points)}
         if points:
             e, e_dot = q_ref - observation.q, -observation.qd
             result, problem = solve_step(self.qp, self.P, q, v, points, q_ref, self.com_ref, e, e_dot,
-                                         self.world.torque_limit, self.world.joint_names, self.dt)
+                                         self.world.torque_limit, self.world.joint_names, self.scenario.control_dt)
             record.update(qp_solved=float(result.solved), qp_iterations=result.iterations, qp_model_ms=result.model_ms,
                           qp_build_ms=result.build_ms, qp_solve_ms=result.solve_ms, qp_selected=len(problem.selected))
             if result.solved:

@@ -12,6 +12,7 @@ import numpy as np
 from fallbench.servo import ServoCommand
 
 if TYPE_CHECKING:
+    from fallbench.scenario import Scenario
     from fallbench.world import World
 
 
@@ -36,12 +37,14 @@ class GainPolicy(ABC):
 
     defaults: dict[str, Any] = {}
 
-    def __init__(self, world: "World", params: dict[str, Any]) -> None:
+    def __init__(self, world: "World", scenario: "Scenario") -> None:
+        params = scenario.policy_params.get(self.name, {})
         unknown = set(params) - set(self.defaults)
         if unknown:
             raise ValueError(f"policy {self.name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
                              f"known: {', '.join(sorted(self.defaults)) or 'none'}")
         self.world = world
+        self.scenario = scenario
         self.default_kp = world.default_kp
         self.default_kd = world.default_kd
         self.params = {**self.defaults, **params}
@@ -52,10 +55,6 @@ class GainPolicy(ABC):
 
     def stats(self) -> dict[str, float]:
         """Per-episode controller figures (QP timings, failures) stored with the metrics."""
-        return {}
-
-    def step_record(self) -> dict[str, float]:
-        """Per-control-step figures (status, iterations, solve time) for the time series."""
         return {}
 
 
