@@ -60,7 +60,7 @@ def _touching(world: World, sensor_rows: np.ndarray) -> set[str]:
     return {world.contact_bodies[i] for i in np.flatnonzero(found)}
 
 
-def _push_force(world: World, scenario: Scenario, data: mujoco.MjData) -> tuple[int, np.ndarray] | None:
+def _push_force(world: World, scenario: Scenario) -> tuple[int, np.ndarray] | None:
     push = scenario.push
     if push is None or push.force == 0:
         return None
@@ -91,7 +91,7 @@ def run_episode(scenario: Scenario, policy_name: str) -> Recording:
     fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall)
     impact = ImpactDetector()
     q_ref_impact: np.ndarray | None = None
-    push = _push_force(world, scenario, data)
+    push = _push_force(world, scenario)
     torso_rotation = np.zeros(9)
     mujoco.mj_forward(model, data)
     sensor_row = data.sensordata.copy()

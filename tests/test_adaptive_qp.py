@@ -16,7 +16,7 @@ from fallbench.control.adaptive_gains_qp import (
     model_terms,
     select_motors,
 )
-from fallbench.control.contacts import environment_contacts
+from fallbench.control.contacts import cone_matrix, environment_contacts
 from fallbench.episode import run_episode
 from fallbench.scenario import Scenario
 
@@ -57,9 +57,7 @@ def test_solution_satisfies_dynamics_torque_limits_and_bounds(post_impact_states
         nv, n_l, s = problem.n_qdd, problem.n_lambda, problem.selected
         qdd, lam, K, B = x[:nv], x[nv : nv + n_l], x[nv + n_l : nv + n_l + len(s)], x[nv + n_l + len(s) :]
         # Dynamics (eq. 10), all rows: H qdd + C - J' G lambda = tau, tau = 0 on the base.
-        G = np.zeros((3 * len(points), n_l))
-        for i, point in enumerate(points):
-            G[3 * i : 3 * i + 3, 4 * i : 4 * i + 4] = point.generators
+        G = cone_matrix(points)
         tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ G @ lam
         scale = np.abs(terms.H @ qdd).max() + np.abs(terms.C).max()
         assert np.abs(tau[:6]).max() < TOL * scale

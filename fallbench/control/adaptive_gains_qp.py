@@ -27,7 +27,7 @@ import numpy as np
 import pinocchio as pin
 import proxsuite
 
-from fallbench.control.contacts import ContactKinematics, ContactPoint, contact_kinematics
+from fallbench.control.contacts import ContactKinematics, ContactPoint, cone_matrix, contact_kinematics, normal_matrix
 from fallbench.control.model import PinocchioModel
 from fallbench.control.tasks.com import ComTask
 from fallbench.control.tasks.posture import PostureTask
@@ -132,9 +132,7 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
     """Assemble the QP from the model terms; e, e_dot, torque_limit per actuator (MuJoCo order)."""
     nv = P.model.nv
     q, v, H_dyn, C_dyn, kin = terms.q, terms.v, terms.H, terms.C, terms.contacts
-    G = np.zeros((3 * len(points), 4 * len(points)))
-    for i, point in enumerate(points):
-        G[3 * i : 3 * i + 3, 4 * i : 4 * i + 4] = point.generators
+    G = cone_matrix(points)
     JtG = kin.jacobian.T @ G  # (nv, n_lambda)
 
     selected = select_motors(P, {p.body for p in points}, joint_names)
@@ -155,9 +153,7 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
         return block
 
     base = np.arange(6)
-    normals = np.zeros((len(points), 3 * len(points)))
-    for i, point in enumerate(points):
-        normals[i, 3 * i : 3 * i + 3] = point.normal
+    normals = normal_matrix(points)
     contact_rows = np.zeros((len(points), n))
     contact_rows[:, :nv] = normals @ kin.jacobian
     A = np.vstack([dynamics_rows(base, False), dynamics_rows(sel_v, True), contact_rows])

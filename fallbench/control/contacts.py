@@ -38,6 +38,22 @@ def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.n
     return edges / np.linalg.norm(edges, axis=0)
 
 
+def cone_matrix(points: list[ContactPoint]) -> np.ndarray:
+    """G (3 n, 4 n): block diagonal of the points' friction-cone generators; forces = G lambda."""
+    G = np.zeros((3 * len(points), 4 * len(points)))
+    for i, point in enumerate(points):
+        G[3 * i : 3 * i + 3, 4 * i : 4 * i + 4] = point.generators
+    return G
+
+
+def normal_matrix(points: list[ContactPoint]) -> np.ndarray:
+    """N (n, 3 n): row i picks point i's normal component out of stacked 3D vectors."""
+    N = np.zeros((len(points), 3 * len(points)))
+    for i, point in enumerate(points):
+        N[i, 3 * i : 3 * i + 3] = point.normal
+    return N
+
+
 def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: float) -> list[ContactPoint]:
     """Contacts between a robot body and the world's static geoms (floor, obstacles)."""
     points = []
