@@ -88,7 +88,7 @@ def run_episode(scenario: Scenario, policy_name: str) -> Recording:
 
     q_start = data.qpos[world.qpos_adr].copy()
     command = ServoCommand(world.default_kp, world.default_kd, q_start, np.zeros(model.nu))
-    fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall)
+    fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall, scenario.detection.freefall_hold)
     impact = ImpactDetector()
     q_ref_impact: np.ndarray | None = None
     push = _push_force(world, scenario)

@@ -15,19 +15,28 @@ def tilt_deg(rotation: np.ndarray) -> float:
 
 @dataclass
 class FallDetector:
-    """A fall starts when the torso tilts past `tilt` deg (000) or the IMU reads free fall."""
+    """A fall starts when the torso tilts past `tilt` deg (000) or the IMU has read free fall for
+    `freefall_hold` s. The hold matters at t = 0 of a standing start: the feet touch the floor
+    without load yet, so the first reading is free fall although the robot stands."""
 
     tilt: float  # deg
     freefall: float  # m/s^2, accelerometer norm below which the robot is in free fall
+    freefall_hold: float  # s
     time: float | None = None
     reason: str = ""
+    freefall_since: float | None = None
 
     def update(self, t: float, torso_rotation: np.ndarray, imu_acc: np.ndarray) -> bool:
-        if self.time is None:
-            if tilt_deg(torso_rotation) > self.tilt:
-                self.time, self.reason = t, "tilt"
-            elif float(np.linalg.norm(imu_acc)) < self.freefall:
-                self.time, self.reason = t, "freefall"
+        if self.time is not None:
+            return True
+        if float(np.linalg.norm(imu_acc)) >= self.freefall:
+            self.freefall_since = None
+        elif self.freefall_since is None:
+            self.freefall_since = t
+        if tilt_deg(torso_rotation) > self.tilt:
+            self.time, self.reason = t, "tilt"
+        elif self.freefall_since is not None and t - self.freefall_since >= self.freefall_hold - 1e-9:
+            self.time, self.reason = self.freefall_since, "freefall"
         return self.time is not None
 
 

@@ -63,6 +63,7 @@ Obstacle = Annotated[Union[Box, Cylinder], Field(discriminator="type")]
 class Detection(Strict):
     tilt: Annotated[float, Field(gt=0, lt=90)] = 15.0  # deg of torso tilt that declares a fall (000)
     freefall: NonNegativeFloat = 3.0  # m/s^2: accelerometer norm below this declares free fall
+    freefall_hold: NonNegativeFloat = 0.02  # s the accelerometer must read free fall
 
 
 class Scenario(Strict):
