@@ -1,8 +1,13 @@
 """The control loop of one fall and the recorder of its time series.
 
-Physics at `physics_dt`, controller every `control_dt`: state -> fall detector -> impact detector ->
-gain policy -> servo references and gains written into the actuators. Everything the metrics need
-is recorded at the physics rate from MuJoCo's sensors (computed in C inside the step).
+Physics at `physics_dt`, controller every `control_dt`: state -> fall detector -> pre-impact
+strategy -> impact detector -> gain policy -> servo references and gains written into the
+actuators. Everything the metrics need is recorded at the physics rate from MuJoCo's sensors
+(computed in C inside the step).
+
+Without a pre-impact strategy every motor switches to the gain policy at the first impact. With
+one, a motor switches when a body on its chain to the root touches the environment (002 Sec. V,
+last paragraph); the others go on reshaping until the torso or head lands, when all switch.
 """
 
 from __future__ import annotations
@@ -14,12 +19,17 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from fallbench.control.adaptive_gains_qp import select_motors
+from fallbench.control.model import pinocchio_for
 from fallbench.events import FallDetector, ImpactDetector
+from fallbench.impacts import ImpactEvent, ImpactLog
 from fallbench.policies import GainPolicy, Observation, make_policy
+from fallbench.preimpact import make_strategy
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand, write_servo
 from fallbench.world import World, build_world, initial_state
 
+LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
 DIVERGENCE_WARNINGS = [int(mujoco.mjtWarning.mjWARN_BADQACC), int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADQPOS)]
 
 
@@ -47,7 +57,10 @@ class Recording:
     fall_reason: str
     impact_time: float | None  # s, control step at which the policy switched
     impact_bodies: list[str]
-    controller_ms: np.ndarray  # ms per control step spent in the policy
+    controller_ms: np.ndarray  # ms per control step spent in the strategy and the policy
+    pre_impact: str = "none"
+    impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
+    landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
     policy_stats: dict[str, float] = field(default_factory=dict)
     steps: int = 0
     status: str = "ok"
@@ -70,11 +83,23 @@ def _push_force(world: World, scenario: Scenario) -> tuple[int, np.ndarray] | No
     return body, np.concatenate([force, np.zeros(3)])
 
 
-def run_episode(scenario: Scenario, policy_name: str) -> Recording:
+def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) -> ServoCommand:
+    """Switched motors follow the gain policy, the others the pre-impact command."""
+    if switched.all():
+        return policy
+    return ServoCommand(*(np.where(switched, a, b) for a, b in zip(
+        (policy.kp, policy.kd, policy.q_ref, policy.qd_ref), (other.kp, other.kd, other.q_ref, other.qd_ref))))
+
+
+def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") -> Recording:
     world = build_world(scenario)
     model = world.model
     policy: GainPolicy = make_policy(policy_name, world, scenario)
+    strategy = make_strategy(pre_impact, world, scenario)
     data = initial_state(world, scenario)
+    impacts = ImpactLog(world)
+    P = pinocchio_for(world)
+    landed_bodies = {b for g in LANDED_GROUPS for b in world.robot.body_groups.get(g, ())}
 
     n_control = math.ceil(scenario.duration / scenario.control_dt - 1e-9)
     per_control = scenario.physics_steps_per_control
@@ -87,7 +112,8 @@ def run_episode(scenario: Scenario, policy_name: str) -> Recording:
     controller_ms = np.zeros(n_control)
 
     q_start = data.qpos[world.qpos_adr].copy()
-    command = ServoCommand(world.default_kp, world.default_kd, q_start, np.zeros(model.nu))
+    command = pre_command = ServoCommand(world.default_kp, world.default_kd, q_start, np.zeros(model.nu))
+    switched = np.zeros(model.nu, dtype=bool)  # motors under the gain policy
     fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall, scenario.detection.freefall_hold)
     impact = ImpactDetector()
     q_ref_impact: np.ndarray | None = None
@@ -105,20 +131,36 @@ def run_episode(scenario: Scenario, policy_name: str) -> Recording:
     written: ServoCommand | None = None
     for k in range(n_control):
         t = k * scenario.control_dt
+        started = time.perf_counter()
         if fall.time is None:
             mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
             if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
                 impact.start(recent_touching())
-        elif impact.time is None:
-            impact.update(t, recent_touching())
-        if impact.time is not None:
+                if strategy is not None:
+                    strategy.start(qpos, qvel, qpos[world.qpos_adr], qvel[world.qvel_adr])
+        if fall.time is not None:
+            touching = recent_touching()
+            new = touching - (impact.support or set())
+            impact.update(t, touching)
+            impacts.update(t, new, data, qpos, qvel)
+            if impact.time is not None and not switched.all():
+                q = qpos[world.qpos_adr]
+                now = np.ones(model.nu, dtype=bool) if strategy is None or new & landed_bodies else switched.copy()
+                now[select_motors(P, new, world.joint_names)] = True
+                if (now & ~switched).any():
+                    q_ref_impact = np.where(now & ~switched, q, q_ref_impact if q_ref_impact is not None else q)
+                    switched = now
+            if strategy is not None and not switched.all():
+                pre_command = strategy.step(t, data, qpos, qvel)
+        if switched.any():
             q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
-            if q_ref_impact is None:
-                q_ref_impact = q  # configuration just before impact (002 Sec. V)
-            started = time.perf_counter()
-            touching = recent_touching() if policy.needs_contacts else set()
-            observation = Observation(t, qpos.copy(), qvel.copy(), q, qd, touching, data)
-            command = policy.after_impact(observation, q_ref_impact)
+            touching_now = recent_touching() if policy.needs_contacts else set()
+            observation = Observation(t, qpos.copy(), qvel.copy(), q, qd, touching_now, data)
+            assert q_ref_impact is not None
+            command = _compose(switched, policy.after_impact(observation, q_ref_impact), pre_command)
+        else:
+            command = pre_command
+        if fall.time is not None:
             controller_ms[k] = (time.perf_counter() - started) * 1e3
         if command is not written:
             write_servo(model, data, command)
@@ -144,10 +186,19 @@ def run_episode(scenario: Scenario, policy_name: str) -> Recording:
             break
 
     held = np.repeat(gains[:, : k + 1], per_control, axis=1)[:, :step]
+    landing_errors: dict[str, float] = {}
+    if strategy is not None:
+        for side in world.robot.arms:
+            contact = impacts.side_first_contact(side)
+            bip = strategy.bip_before(side, contact[1].t) if contact else None
+            if contact is not None and bip is not None:
+                landing_errors[side] = float(np.linalg.norm(contact[1].point - bip))
     return Recording(
         world=world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=rec_sensor[:step],
         qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
         fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,
-        controller_ms=controller_ms[: k + 1], policy_stats=policy.stats(), steps=step, status=status, error=error,
+        controller_ms=controller_ms[: k + 1], pre_impact=pre_impact, impact_events=impacts.events,
+        landing_errors=landing_errors, policy_stats=policy.stats() | (strategy.stats() if strategy else {}),
+        steps=step, status=status, error=error,
     )

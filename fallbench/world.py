@@ -298,12 +298,15 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
         return "push.body", f"unknown body {scenario.push.body!r} of robot {robot.name!r}"
     from fallbench.policies import POLICIES
 
+    from fallbench.control.reshape import RESHAPE_PARAMS
+
+    parameters = {name: policy.defaults for name, policy in POLICIES.items()} | {"reshape": RESHAPE_PARAMS}
     for policy, params in scenario.policy_params.items():
-        if policy not in POLICIES:
-            return f"policy_params.{policy}", f"unknown policy (known: {', '.join(POLICIES)})"
-        unknown = sorted(set(params) - set(POLICIES[policy].defaults))
+        if policy not in parameters:
+            return f"policy_params.{policy}", f"unknown policy or strategy (known: {', '.join(parameters)})"
+        unknown = sorted(set(params) - set(parameters[policy]))
         if unknown:
-            known = ", ".join(sorted(POLICIES[policy].defaults)) or "none"
+            known = ", ".join(sorted(parameters[policy])) or "none"
             return f"policy_params.{policy}.{unknown[0]}", f"unknown parameter of {policy!r} (known: {known})"
     if scenario.push and scenario.push.start >= scenario.duration:
         return "push.start", f"the push starts at {scenario.push.start} s, after the episode ends ({scenario.duration} s)"

@@ -10,13 +10,13 @@ from fallbench.control.adaptive_gains_qp import (
     B_SCALE,
     K_SCALE,
     LAMBDA_SCALE,
-    AdaptiveGainQP,
     QPConfig,
     build_problem,
     model_terms,
     select_motors,
 )
 from fallbench.control.contacts import cone_matrix, environment_contacts
+from fallbench.control.dense_qp import DenseQP
 from fallbench.episode import run_episode
 from fallbench.scenario import Scenario
 
@@ -52,7 +52,7 @@ def test_solution_satisfies_dynamics_torque_limits_and_bounds(post_impact_states
         terms = model_terms(P, q, v, points)
         problem = build_problem(P, terms, points, q_ref, policy.com_ref, e, e_dot, world.torque_limit,
                                 world.joint_names, policy.scenario.control_dt, QPConfig())
-        status, solved, _, x = AdaptiveGainQP(QPConfig()).solve(problem)
+        status, solved, _, x = DenseQP(QPConfig().eps_abs, QPConfig().max_iter).solve(problem)
         assert solved, status
         nv, n_l, s = problem.n_qdd, problem.n_lambda, problem.selected
         qdd, lam, K, B = x[:nv], x[nv : nv + n_l], x[nv + n_l : nv + n_l + len(s)], x[nv + n_l + len(s) :]

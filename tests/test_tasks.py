@@ -49,7 +49,7 @@ def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
     pin.computeJointJacobians(P.model, P.data, q)
     pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)
-    kin = contact_kinematics(P, [point])
+    kin = contact_kinematics(P, v, [point])
     # velocity = J v, and J against finite differences of the point position along v
     fd_velocity = (_point_position(P, pin.integrate(P.model, q, v * EPS), local) - _point_position(P, q, local)) / EPS
     np.testing.assert_allclose(kin.jacobian @ v, fd_velocity, atol=1e-4)
@@ -60,7 +60,7 @@ def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
     pin.forwardKinematics(P.model, P.data, q_next, v, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)
     moved = ContactPoint(point.body, P.data.oMf[frame].act(local), point.normal, point.generators)
-    fd_drift = (contact_kinematics(P, [moved]).velocity - kin.velocity) / EPS
+    fd_drift = (contact_kinematics(P, v, [moved]).velocity - kin.velocity) / EPS
     np.testing.assert_allclose(kin.drift, fd_drift, atol=2e-3 * max(1.0, np.abs(fd_drift).max()))
 
 

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-import proxsuite
 
+from fallbench.control.dense_qp import DenseQP
 from fallbench.control.contacts import ContactKinematics, ContactPoint, cone_matrix, contact_kinematics, normal_matrix
 from fallbench.control.model import PinocchioModel
 from fallbench.control.tasks.com import ComTask
@@ -121,7 +121,7 @@ def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[Co
     pin.computeJointJacobians(model, data, q)
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
     pin.updateFramePlacements(model, data)
-    contacts = contact_kinematics(P, points)
+    contacts = contact_kinematics(P, v, points)
     com, vcom, com_drift = ComTask.state(model, data, q, v)
     return ModelTerms(q, v, H, C, contacts, com, vcom, com_drift, ComTask.jacobian(model, data, q))
 
@@ -198,42 +198,13 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
                      l_box=l_box / scale, u_box=u_box / scale, scale=scale, n_qdd=nv, n_lambda=n_l, selected=selected)
 
 
-class AdaptiveGainQP:
-    """Solves the QP each control step; reuses one ProxSuite solver while the sizes stay the same."""
-
-    def __init__(self, cfg: QPConfig) -> None:
-        self.cfg = cfg
-        self.solver: proxsuite.proxqp.dense.QP | None = None
-        self.dims: tuple[int, int, int] | None = None
-
-    def solve(self, problem: QPProblem) -> tuple[str, bool, int, np.ndarray]:
-        dims = (problem.H.shape[0], problem.A.shape[0], problem.C.shape[0])
-        if dims != self.dims:
-            self.solver = proxsuite.proxqp.dense.QP(*dims, box_constraints=True)
-            self.solver.settings.eps_abs = self.cfg.eps_abs
-            self.solver.settings.max_iter = self.cfg.max_iter
-            self.solver.settings.initial_guess = proxsuite.proxqp.InitialGuess.EQUALITY_CONSTRAINED_INITIAL_GUESS
-            self.solver.settings.verbose = False
-            self.solver.init(problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u,
-                             problem.l_box, problem.u_box)
-            self.dims = dims
-        else:
-            assert self.solver is not None
-            self.solver.update(problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u,
-                               problem.l_box, problem.u_box)
-        self.solver.solve()
-        info = self.solver.results.info
-        status = info.status.name.removeprefix("PROXQP_")
-        return status, status == "SOLVED", int(info.iter), problem.scale * self.solver.results.x
-
-
-def solve_step(qp: AdaptiveGainQP, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint],
+def solve_step(qp: DenseQP, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint],
                q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray, torque_limit: np.ndarray,
-               joint_names: tuple[str, ...], dt: float) -> tuple[QPResult, QPProblem]:
+               joint_names: tuple[str, ...], dt: float, cfg: QPConfig) -> tuple[QPResult, QPProblem]:
     started = time.perf_counter()
     terms = model_terms(P, q, v, points)
     modelled = time.perf_counter()
-    problem = build_problem(P, terms, points, q_ref, com_ref, e, e_dot, torque_limit, joint_names, dt, qp.cfg)
+    problem = build_problem(P, terms, points, q_ref, com_ref, e, e_dot, torque_limit, joint_names, dt, cfg)
     built = time.perf_counter()
     status, solved, iterations, x = qp.solve(problem)
     solved_at = time.perf_counter()

@@ -11,11 +11,8 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-import pinocchio as pin
-
 from fallbench.control.model import PinocchioModel
-
-LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+from fallbench.control.tasks.body_point import BodyPoint
 
 
 @dataclass
@@ -71,23 +68,16 @@ def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: f
     return points
 
 
-def contact_kinematics(P: PinocchioModel, points: list[ContactPoint]) -> ContactKinematics:
+def contact_kinematics(P: PinocchioModel, v: np.ndarray, points: list[ContactPoint]) -> ContactKinematics:
     """Point Jacobians, drifts and velocities; needs forwardKinematics(q, v, 0) and
     computeJointJacobians(q) done on P.data."""
     model, data = P.model, P.data
     n = len(points)
     jacobian = np.zeros((3 * n, model.nv))
     drift = np.zeros(3 * n)
-    velocity = np.zeros(3 * n)
     for i, point in enumerate(points):
-        frame = model.getFrameId(point.body)
-        J6 = pin.getFrameJacobian(model, data, frame, LWA)
-        offset = point.position - data.oMf[frame].translation
-        twist = pin.getFrameVelocity(model, data, frame, LWA)
-        acc = pin.getFrameClassicalAcceleration(model, data, frame, LWA)
-        omega = twist.angular
+        placement = data.oMf[model.getFrameId(point.body)]
+        local = placement.rotation.T @ (point.position - placement.translation)
         rows = slice(3 * i, 3 * i + 3)
-        jacobian[rows] = J6[:3] - pin.skew(offset) @ J6[3:]
-        velocity[rows] = twist.linear + np.cross(omega, offset)
-        drift[rows] = acc.linear + np.cross(acc.angular, offset) + np.cross(omega, np.cross(omega, offset))
-    return ContactKinematics(jacobian, drift, velocity)
+        _, jacobian[rows], drift[rows] = BodyPoint(point.body, local).kinematics(model, data)
+    return ContactKinematics(jacobian, drift, jacobian @ v)

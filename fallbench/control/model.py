@@ -50,3 +50,13 @@ def build_pinocchio(world: World) -> PinocchioModel:
         model.armature[model.joints[joint_id].idx_v] = mj.dof_armature[mj.jnt_dofadr[mj_joint]]
     actuated = np.array([model.joints[model.getJointId(name)].idx_v for name in world.joint_names])
     return PinocchioModel(model, model.createData(), np.array(q_map), np.array(v_map), actuated)
+
+
+_PINOCCHIO: dict[int, PinocchioModel] = {}
+
+
+def pinocchio_for(world: World) -> PinocchioModel:
+    """One Pinocchio model per compiled world in this process (worlds are cached and kept alive)."""
+    if id(world) not in _PINOCCHIO:
+        _PINOCCHIO[id(world)] = build_pinocchio(world)
+    return _PINOCCHIO[id(world)]

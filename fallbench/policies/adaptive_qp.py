@@ -14,24 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import AdaptiveGainQP, QPConfig, solve_step
+from fallbench.control.adaptive_gains_qp import QPConfig, solve_step
+from fallbench.control.dense_qp import DenseQP
 from fallbench.control.contacts import environment_contacts
-from fallbench.control.model import PinocchioModel, build_pinocchio
+from fallbench.control.model import pinocchio_for
 from fallbench.control.tasks.com import ComTask
 from fallbench.policies.base import GainPolicy, Observation
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.world import World
-
-_PINOCCHIO: dict[int, PinocchioModel] = {}
-
-
-def pinocchio_for(world: World) -> PinocchioModel:
-    """One Pinocchio model per compiled world in this process."""
-    if id(world) not in _PINOCCHIO:
-        _PINOCCHIO[id(world)] = build_pinocchio(world)
-    return _PINOCCHIO[id(world)]
-
 
 class AdaptiveQPPolicy(GainPolicy):
     name = "adaptive_qp"
@@ -42,7 +33,7 @@ class AdaptiveQPPolicy(GainPolicy):
         super().__init__(world, scenario)
         self.cfg = QPConfig(**self.params)
         self.P = pinocchio_for(world)
-        self.qp = AdaptiveGainQP(self.cfg)
+        self.qp = DenseQP(self.cfg.eps_abs, self.cfg.max_iter)
         self.com_ref: np.ndarray | None = None
         self.kp, self.kd = self.default_kp.copy(), self.default_kd.copy()
         self.records: list[dict[str, float]] = []
@@ -57,7 +48,7 @@ class AdaptiveQPPolicy(GainPolicy):
         if points:
             e, e_dot = q_ref - observation.q, -observation.qd
             result, problem = solve_step(self.qp, self.P, q, v, points, q_ref, self.com_ref, e, e_dot,
-                                         self.world.torque_limit, self.world.joint_names, self.scenario.control_dt)
+                                         self.world.torque_limit, self.world.joint_names, self.scenario.control_dt, self.cfg)
             record.update(qp_solved=float(result.solved), qp_iterations=result.iterations, qp_model_ms=result.model_ms,
                           qp_build_ms=result.build_ms, qp_solve_ms=result.solve_ms, qp_selected=len(problem.selected))
             if result.solved:

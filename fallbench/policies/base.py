@@ -68,7 +68,8 @@ class FixedGainPolicy(GainPolicy):
         """K (Nm/rad) and B (Nms/rad) per actuated joint from the impact on."""
 
     def after_impact(self, observation: Observation, q_ref: np.ndarray) -> ServoCommand:
-        if self.command is None:  # built once: the servo is rewritten only when the command changes
+        # rebuilt only when q_ref changes (a chain switching later): the servo is rewritten only then
+        if self.command is None or self.command.q_ref is not q_ref:
             kp, kd = self.impact_gains()
             self.command = ServoCommand(kp, kd, q_ref, np.zeros_like(q_ref))
         return self.command

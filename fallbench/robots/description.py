@@ -18,6 +18,18 @@ class GainGroup:
 
 
 @dataclass(frozen=True)
+class Arm:
+    """Joint and frame names of one arm, for the pre-impact reshaping (000 Sec. IV)."""
+
+    shoulder_joint: str  # first arm joint: its origin is the shoulder
+    elbow_joint: str
+    wrist_joint: str  # its origin is the wrist point the landing tasks place
+    wrist_frame: str  # body carrying the wrist point
+    wrist_pitch_joint: str  # bent to pull the hand up, so that the wrist lands first
+    hand_frame: str  # a body of the hand, to tell which way pulls the hand up
+
+
+@dataclass(frozen=True)
 class RobotDescription:
     """A robot: its URDF/SRDF, named postures, default gains and the bodies metrics talk about."""
 
@@ -37,6 +49,8 @@ class RobotDescription:
     postures: dict[str, dict[str, float]] = field(default_factory=dict)
     posture_base_height: dict[str, float] = field(default_factory=dict)
     disabled_collisions: tuple[tuple[str, str], ...] = ()
+    arms: dict[str, Arm] = field(default_factory=dict)  # "left"/"right" -> names
+    leg_pitch_joints: dict[str, tuple[str, ...]] = field(default_factory=dict)  # "hip"/"knee"/"ankle" -> both legs
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine."""

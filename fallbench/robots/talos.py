@@ -6,6 +6,7 @@ from importlib.metadata import distribution, version
 from pathlib import Path
 
 from fallbench.robots.description import (
+    Arm,
     GainGroup,
     RobotDescription,
     read_srdf_armature,
@@ -72,4 +73,8 @@ def talos() -> RobotDescription:
         postures=postures,
         posture_base_height=heights,
         disabled_collisions=read_srdf_disabled_collisions(srdf),
+        arms={side: Arm(f"arm_{side}_1_joint", f"arm_{side}_4_joint", f"arm_{side}_7_joint", f"arm_{side}_7_link",
+                        f"arm_{side}_6_joint", f"gripper_{side}_base_link") for side in ("left", "right")},
+        leg_pitch_joints={"hip": ("leg_left_3_joint", "leg_right_3_joint"), "knee": ("leg_left_4_joint", "leg_right_4_joint"),
+                          "ankle": ("leg_left_5_joint", "leg_right_5_joint")},
     )

@@ -1,0 +1,53 @@
+"""The posture the reshaping controller aims for between fall detection and impact (000 Sec. IV).
+
+Knees bent (lowers the CoM, 002 Sec. IV-C), elbows at the angle of highest manipulability so
+they can comply and are not aligned with the impact (000 Sec. IV-B, Fig. 3a), hands pulled up so
+the wrists land first (000 Sec. IV-A). The rest stays at the starting posture.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from fallbench.robots.description import RobotDescription
+
+WRIST_BEND_FRACTION = 0.8  # of the wrist pitch range toward the hand-up side
+
+
+def elbow_angle_max_manipulability(low: float, high: float) -> float:
+    """Elbow angle in [low, high] maximising the 2-link arm's manipulability w = l1 l2 |sin(theta)|."""
+    angles = np.linspace(low, high, 721)
+    return float(angles[np.argmax(np.abs(np.sin(angles)))])
+
+
+def wrist_up_angle(model: pin.Model, q: np.ndarray, joint: str, hand_frame: str) -> float:
+    """The wrist pitch, near one end of its range, that puts the hand highest in posture q."""
+    data = model.createData()
+    index = model.joints[model.getJointId(joint)].idx_q
+    best, best_height = 0.0, -np.inf
+    for bound in (model.lowerPositionLimit[index], model.upperPositionLimit[index]):
+        trial = q.copy()
+        trial[index] = WRIST_BEND_FRACTION * bound
+        pin.framesForwardKinematics(model, data, trial)
+        height = data.oMf[model.getFrameId(hand_frame)].translation[2]
+        if height > best_height:
+            best, best_height = float(trial[index]), height
+    return best
+
+
+def fall_posture(model: pin.Model, robot: RobotDescription, start: dict[str, float], knee_bend: float) -> dict[str, float]:
+    """Joint name -> target angle (rad) for every joint in `start`."""
+    target = dict(start)
+    for hip, knee, ankle in zip(*(robot.leg_pitch_joints[k] for k in ("hip", "knee", "ankle"))):
+        target[knee] = knee_bend
+        target[hip] = target[ankle] = -knee_bend / 2  # thigh and shank symmetric: the foot stays flat
+    q = pin.neutral(model)
+    for arm in robot.arms.values():
+        index = model.joints[model.getJointId(arm.elbow_joint)].idx_q
+        target[arm.elbow_joint] = elbow_angle_max_manipulability(model.lowerPositionLimit[index], model.upperPositionLimit[index])
+    for name, value in target.items():
+        q[model.joints[model.getJointId(name)].idx_q] = value
+    for arm in robot.arms.values():
+        target[arm.wrist_pitch_joint] = wrist_up_angle(model, q, arm.wrist_pitch_joint, arm.hand_frame)
+    return target
