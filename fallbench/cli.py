@@ -10,9 +10,11 @@ import typer
 
 from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
 
-SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml")]
+SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
+           Path("scenarios/clutter.yaml")]
 SUMMARY_COLUMNS = ["imu_peak_z", "knee_limit_margin", "torque_ratio_max", "torque_demand_ratio_max",
-                   "joint_limit_hits", "contact_force_peak", "fell"]
+                   "joint_limit_hits", "contact_force_peak", "contact_force_peak_head", "contact_force_peak_torso",
+                   "first_impact_safe", "landing_error", "fell"]
 
 app = typer.Typer(help="Compare humanoid fall-control strategies in MuJoCo: sweep scenarios, store metrics.",
                   no_args_is_help=True, pretty_exceptions_enable=False, add_completion=False)
@@ -43,6 +45,19 @@ def _policies(text: str) -> list[str]:
         if name not in POLICIES:
             fail(f"--policies: unknown policy {name!r}; known: {', '.join(POLICIES)}")
     return names
+
+
+def _strategies(text: str) -> list[str]:
+    from fallbench.preimpact import STRATEGIES
+
+    names = [p.strip() for p in text.split(",") if p.strip()]
+    for name in names:
+        if name not in STRATEGIES:
+            fail(f"--pre-impact: unknown strategy {name!r}; known: {', '.join(STRATEGIES)}")
+    return names
+
+
+PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape); a scenario's own `pre_impact` list wins."
 
 
 def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> ScenarioPoint:
@@ -76,31 +91,33 @@ def _same(swept: object, text: str) -> bool:
 def run_sweep_command(
     files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push and obstacle scenarios)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
+    pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
     strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
     progress: bool = typer.Option(True, help="Show a progress bar."),
 ) -> None:
-    """Run every (scenario point, seed, policy) not yet in the store, then print a summary.
+    """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
     Interrupted sweeps resume: finished runs are skipped. Failed runs are stored with their status.
     """
     from fallbench.runner import expand, run_sweep
 
     points = _load(files or SHIPPED)
-    specs = expand(points, _policies(policies), ["none"])
+    specs = expand(points, _policies(policies), _strategies(pre_impact))
     table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty())
-    summary = table.groupby(["scenario", "policy"])[SUMMARY_COLUMNS].median(numeric_only=True)
-    summary.insert(0, "runs", table.groupby(["scenario", "policy"]).size())
-    summary.insert(1, "failed", table[table.status != "ok"].groupby(["scenario", "policy"]).size().reindex(summary.index, fill_value=0))
+    keys = ["scenario", "pre_impact", "policy"]
+    summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
+    summary.insert(0, "runs", table.groupby(keys).size())
+    summary.insert(1, "failed", table[table.status != "ok"].groupby(keys).size().reindex(summary.index, fill_value=0))
     reports.mkdir(parents=True, exist_ok=True)
     (reports / "sweep_summary.md").write_text("# Sweep summary (medians over runs)\n\n" + summary.round(3).to_markdown() + "\n")
     typer.echo(summary.round(3).to_string())
     failed = table[table.status != "ok"]
     typer.echo(f"\n{len(table)} runs in {results}/metrics.parquet, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md")
     for _, row in failed.iterrows():
-        typer.echo(f"  {row.status}: {row.policy} {row.point}: {row.error}", err=True)
+        typer.echo(f"  {row.status}: {row.pre_impact}/{row.policy} {row.point}: {row.error}", err=True)
     if strict and len(failed):
         raise typer.Exit(1)
 
@@ -110,13 +127,14 @@ def run_one_command(
     file: Path = typer.Argument(..., help="Scenario YAML file."),
     point: list[str] = typer.Option([], help="Sweep point: an index, or key=value (repeatable)."),
     policy: str = typer.Option("stiff", help="Gain policy."),
+    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none or reshape)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
 ) -> None:
     """Run one case, store it, and print its metrics."""
     from fallbench.runner import RunSpec, execute
 
     chosen = _select(_load([file]), point, file)
-    row = execute(RunSpec(chosen, _policies(policy)[0]), results)
+    row = execute(RunSpec(chosen, _policies(policy)[0], _strategies(pre_impact)[0]), results)
     width = max(len(k) for k in row)
     for key, value in row.items():
         typer.echo(f"{key:<{width}}  {value:.4g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
@@ -211,6 +229,7 @@ def check_command(
     baseline: Path = typer.Option(Path("baselines/ci.csv"), help="Baseline metrics (CSV)."),
     tolerances: Path = typer.Option(Path("baselines/tolerances.yaml"), help="Per-metric tolerances (YAML)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
+    pre_impact: str = typer.Option("none", help=PRE_IMPACT_HELP),
     results: Path = typer.Option(Path("results/ci"), help="Results store for the suite's runs."),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes."),
     update: bool = typer.Option(False, help="Rewrite the baseline from this run instead of comparing."),
@@ -227,7 +246,7 @@ def check_command(
         limits = load_tolerances(tolerances)
     except (OSError, ValueError) as exc:
         fail(f"{tolerances}: {exc}")
-    table = run_sweep(expand(_load(suite), _policies(policies), ["none"]), results, jobs=jobs, progress=False)
+    table = run_sweep(expand(_load(suite), _policies(policies), _strategies(pre_impact)), results, jobs=jobs, progress=False)
     now = baseline_frame(table, limits)
     if update:
         write_baseline(now, baseline)

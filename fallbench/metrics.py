@@ -6,9 +6,14 @@ The IMU is the waist accelerometer: specific force in the waist frame, z up, so 
 
 from __future__ import annotations
 
+import json
+import math
+
+import mujoco
 import numpy as np
 import pandas as pd
 
+from fallbench.control.fall_direction import fall_class, horizontal_unit
 from fallbench.episode import Recording
 from fallbench.servo import pd_demand
 
@@ -16,6 +21,7 @@ LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the 
 IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated
 FELL_HEIGHT_FRACTION = 0.6  # base below this fraction of its standing height = fallen
 SMOOTHING_WINDOW = 0.005  # s, moving average for the *_5ms IMU peaks
+SAFE_FIRST_GROUPS = {"hands", "feet"}  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
 
 
 def moving_average(signal: np.ndarray, samples: int) -> np.ndarray:
@@ -75,6 +81,48 @@ def first_contact_time(rec: Recording) -> float | None:
     return float(rec.time[np.argmax(touching)]) if touching.any() else rec.impact_time
 
 
+def fall_class_at_impact(rec: Recording) -> tuple[float, str]:
+    """(fall direction, deg in the world frame, and front/back/left/right against the waist's
+    heading at detection): the way the waist's z axis leans at the first impact."""
+    if rec.fall_time is None or not rec.impact_events:
+        return float("nan"), ""
+    at_fall = int(np.searchsorted(rec.time, rec.fall_time))
+    at_impact = min(int(np.searchsorted(rec.time, rec.impact_events[0].t)), len(rec.time) - 1)
+    rotations = []
+    for at in (at_fall, at_impact):
+        rotation = np.zeros(9)
+        mujoco.mju_quat2Mat(rotation, rec.world.sensor(rec.sensordata[at], "base_quat"))
+        rotations.append(rotation.reshape(3, 3))
+    lean = horizontal_unit(rotations[1][:, 2])
+    if lean is None:
+        return float("nan"), ""
+    return math.degrees(math.atan2(lean[1], lean[0])), fall_class(lean, rotations[0])
+
+
+def impact_metrics(rec: Recording) -> dict[str, object]:
+    """Order of the body groups' first impacts, and the arms and singular joints at the first."""
+    events = rec.impact_events
+    row: dict[str, object] = {"impact_events": json.dumps([
+        {"t": round(e.t, 4), "group": e.group, "bodies": e.bodies, "elbow_rad": {k: round(v, 4) for k, v in e.elbow_angles.items()},
+         "singular": e.singular} for e in events])}
+    row["impact_order"] = ">".join(e.group for e in events)
+    first = [e for e in events if events and e.t == events[0].t]
+    row["first_impact_group"] = "+".join(e.group for e in first)
+    row["first_impact_safe"] = bool(first) and {e.group for e in first} <= SAFE_FIRST_GROUPS
+    row["time_to_first_impact"] = float(events[0].t - rec.fall_time) if events and rec.fall_time is not None else float("nan")
+    for side in ("left", "right"):
+        row[f"elbow_angle_first_impact_{side}"] = float(first[0].elbow_angles.get(side, np.nan)) if first else float("nan")
+    singular = sorted({j for e in first for j in e.singular})
+    row["singular_joints_first_impact"] = len(singular)
+    row["singular_joints_first_impact_names"] = ",".join(singular)
+    errors = rec.landing_errors
+    for side in ("left", "right"):
+        row[f"landing_error_{side}"] = errors.get(side, float("nan"))
+    row["landing_error"] = float(np.mean(list(errors.values()))) if errors else float("nan")
+    row["fall_direction_deg"], row["fall_class"] = fall_class_at_impact(rec)
+    return row
+
+
 def compute_metrics(rec: Recording) -> dict[str, object]:
     world, scenario = rec.world, rec.scenario
     dt = scenario.physics_dt
@@ -114,14 +162,18 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["obstacle_contacts"] = int(sum(bool((f > 0).any()) for f in obstacle_force))
     row["obstacle_force_peak"] = float(max((f.max() for f in obstacle_force), default=0.0))
     row["controller_ms_median"] = float(np.median(rec.controller_ms))
-    row.update({"qp_solve_ms_median": float("nan"), "qp_solve_ms_p99": float("nan"), "qp_failures": 0})
+    row.update(impact_metrics(rec))
+    row.update({"qp_solve_ms_median": float("nan"), "qp_solve_ms_p99": float("nan"), "qp_failures": 0,
+                "preimpact_qp_ms_median": float("nan"), "preimpact_qp_ms_p99": float("nan"), "preimpact_qp_failures": 0,
+                "preimpact_qp_steps": 0, "fall_class_at_detection": "", "fall_class_before_impact": ""})
     row.update(rec.policy_stats)
     row["sim_steps"] = int(rec.steps)
     row["sim_time"] = float(rec.steps * dt)
     return row
 
 
-TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint")
+TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint",
+                     "torso_1_joint", "arm_left_1_joint", "arm_left_4_joint", "arm_left_6_joint", "arm_right_4_joint")
 
 
 def timeseries(rec: Recording) -> pd.DataFrame:

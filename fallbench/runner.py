@@ -26,9 +26,6 @@ from fallbench import store
 from fallbench.robots import get_robot
 from fallbench.scenario import ScenarioPoint
 
-PRE_IMPACT = ("none",)
-
-
 @dataclass(frozen=True)
 class RunSpec:
     point: ScenarioPoint
@@ -71,7 +68,8 @@ def _versions(robot: str) -> tuple[tuple[str, str], ...]:
 
 
 def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[str]) -> list[RunSpec]:
-    return [RunSpec(p, policy, pre) for p in points for pre in pre_impact for policy in policies]
+    """Every (point, strategy, policy); a scenario's own `pre_impact` list replaces `pre_impact`."""
+    return [RunSpec(p, policy, pre) for p in points for pre in (p.scenario.pre_impact or pre_impact) for policy in policies]
 
 
 def _identity(spec: RunSpec) -> dict[str, Any]:
@@ -95,7 +93,7 @@ def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
     row = _identity(spec)
     series = None
     try:
-        recording = run_episode(spec.point.scenario, spec.policy)
+        recording = run_episode(spec.point.scenario, spec.policy, spec.pre_impact)
         row["status"], row["error"] = recording.status, recording.error
         with np.errstate(all="ignore"):  # a diverged recording holds NaNs; its metrics may too
             row.update(compute_metrics(recording))

@@ -79,7 +79,8 @@ class Scenario(Strict):
     push: Push | None = None
     obstacles: list[Obstacle] = []
     detection: Detection = Detection()
-    policy_params: dict[str, dict[str, Any]] = {}  # policy name -> parameter overrides
+    policy_params: dict[str, dict[str, Any]] = {}  # policy (or `reshape`) name -> parameter overrides
+    pre_impact: tuple[Literal["none", "reshape"], ...] | None = None  # pins the strategies swept for this scenario
     seed: Annotated[int, Field(ge=0)] = 0
 
     @model_validator(mode="after")

@@ -167,7 +167,8 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
                        ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL)):
         sensor = spec.add_sensor()
         sensor.name, sensor.type = name, kind
-        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_BODY, robot.root_body
+        # XBODY: the body's own frame (BODY would be its inertial frame, rotated on TALOS's waist)
+        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_XBODY, robot.root_body
 
     _add_contact_sensor(spec, "contact:total", robot.root_body, subtree=True)
     for group, bodies in robot.body_groups.items():

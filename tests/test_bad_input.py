@@ -57,9 +57,18 @@ def test_unknown_policy_is_rejected(tmp_path: Path) -> None:
     assert not (tmp_path / "r").exists()
 
 
+def test_unknown_pre_impact_strategy_is_rejected(tmp_path: Path) -> None:
+    path = tmp_path / "ok.yaml"
+    path.write_text(GOOD)
+    result = CliRunner().invoke(app, ["run", "sweep", str(path), "--pre-impact", "none,flail", "--results", str(tmp_path / "r")])
+    assert result.exit_code == 2
+    assert "--pre-impact: unknown strategy 'flail'; known: none, reshape" in result.stderr
+    assert not (tmp_path / "r").exists()
+
+
 def test_validate_accepts_shipped_scenarios() -> None:
     root = Path(__file__).resolve().parents[1] / "scenarios"
     files = sorted(str(p) for p in root.glob("*.yaml"))
     result = CliRunner().invoke(app, ["scenarios", "validate", *files])
     assert result.exit_code == 0, result.output
-    assert result.output.count(": ok,") == len(files) == 4
+    assert result.output.count(": ok,") == len(files) == 5

@@ -24,7 +24,7 @@ def test_report_writes_figures_tables_and_html(tmp_path: Path) -> None:
     suite.write_text(SUITE)
     results, out = tmp_path / "results", tmp_path / "reports"
     run = CliRunner().invoke(app, ["run", "sweep", str(suite), "--policies", "stiff,zero", "--results", str(results),
-                                   "--reports", str(out), "--jobs", "1"])
+                                   "--reports", str(out), "--jobs", "1", "--pre-impact", "none"])
     assert run.exit_code == 0, run.output
     result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out)])
     assert result.exit_code == 0, result.output
@@ -53,7 +53,7 @@ def test_report_without_a_store_is_a_clear_error(tmp_path: Path) -> None:
 
 def test_claims_verdicts_follow_the_numbers() -> None:
     rows = pd.DataFrame({
-        "scenario": "drop", "status": "ok", "param:initial.height": 1.0,
+        "scenario": "drop", "status": "ok", "pre_impact": "none", "param:initial.height": 1.0,
         "policy": ["stiff", "oneshot", "zero", "adaptive_qp"],
         "imu_peak_z": [300.0, 200.0, 250.0, 100.0],
         "knee_limit_margin": [0.5, -0.01, -0.02, 0.3],

@@ -37,7 +37,7 @@ def _write(tmp_path: Path) -> Path:
 
 def _sweep(path: Path, results: Path, jobs: int, *extra: str):
     return CliRunner().invoke(app, ["run", "sweep", str(path), "--results", str(results), "--jobs", str(jobs),
-                                    "--policies", "stiff,zero", "--reports", str(results / "rep"), *extra])
+                                    "--policies", "stiff,zero", "--pre-impact", "none", "--reports", str(results / "rep"), *extra])
 
 
 def test_failures_are_stored_and_strict_exits_nonzero(tmp_path: Path) -> None:
@@ -70,7 +70,7 @@ def _finished(results: Path) -> int:
 
 def _killed_sweep(path: Path, results: Path, sig: int) -> None:
     cmd = [sys.executable, "-m", "fallbench.cli", "run", "sweep", str(path), "--results", str(results),
-           "--jobs", "1", "--policies", "stiff,oneshot,zero", "--reports", str(results / "rep"), "--no-progress"]
+           "--jobs", "1", "--policies", "stiff,oneshot,zero", "--pre-impact", "none", "--reports", str(results / "rep"), "--no-progress"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     while time.time() < deadline and _finished(results) < 2:
@@ -90,7 +90,7 @@ def test_killed_sweep_resumes_without_duplicates(tmp_path: Path) -> None:
             if not folder.name.startswith("."):
                 pq.read_table(folder / "metrics.parquet")
         result = CliRunner().invoke(app, ["run", "sweep", str(path), "--results", str(results), "--jobs", "1",
-                                          "--policies", "stiff,oneshot,zero", "--reports", str(results / "rep")])
+                                          "--policies", "stiff,oneshot,zero", "--pre-impact", "none", "--reports", str(results / "rep")])
         assert result.exit_code == 0, result.output
         table = pd.read_parquet(results / "metrics.parquet")
         assert len(table) == 12 and table.run_id.is_unique

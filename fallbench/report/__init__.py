@@ -11,6 +11,7 @@ from tqdm import tqdm
 
 from fallbench import store
 from fallbench.report.claims import claims_table
+from fallbench.report.preimpact import preimpact_report
 from fallbench.report.figures import RIGHT_LEG_PITCH, gains_figure, imu_figure, knee_figure, torque_figure
 from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
 
@@ -26,9 +27,10 @@ def _torque_limits() -> dict[str, float]:
 
 
 def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> dict[str, list[Path]]:
-    """Figs. 4, 5, 6a, 6b for each drop or push scenario point with more than one policy."""
+    """Figs. 4, 5, 6a, 6b for each drop or push scenario point with more than one policy, as in
+    002: gain policies alone (pre-impact strategy `none`)."""
     figures: dict[str, list[Path]] = {}
-    ok = runs[(runs.status == "ok") & runs.scenario.str.contains("drop|push")]
+    ok = runs[(runs.status == "ok") & runs.scenario.str.contains("drop|push") & (runs.pre_impact == "none")]
     limits = _torque_limits()
     points = [(point, group) for point, group in ok.groupby("point") if group.policy.nunique() > 1]
     for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):
@@ -56,23 +58,31 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     figures = paper_figures(runs, results, out, progress)
     sweep_paths = distribution_figure(runs[runs.status == "ok"], out) + parameter_figures(runs[runs.status == "ok"], out)
+    pre_paths, pre_tables = preimpact_report(runs, results, out)
     medians = median_table(runs)
     claims = claims_table(runs)
     failed = runs[runs.status != "ok"][["point", "policy", "status", "error"]]
 
     summary = ["# fallbench report", "", f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.", "",
                "## Claims of 002 Sec. VI", "", claims.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
-               "## Medians per scenario and policy", "", medians.round(3).to_markdown(), ""]
+               "## Pre-impact strategies (none vs reshape)", ""]
+    for title, table in pre_tables.items():
+        summary += [f"### {title}", "", table.to_markdown(index=False) if len(table) else "(no runs)", ""]
+    summary += ["## Medians per scenario, strategy and policy", "", medians.round(3).to_markdown(), ""]
     if len(failed):
         summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
     summary += ["## Files", ""] + [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
-    summary += [f"- `{p.name}`" for p in sweep_paths if p.suffix == ".png"]
+    summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths if p.suffix == ".png"]
     (out / "summary.md").write_text("\n".join(summary) + "\n")
 
     body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
             f"{len(failed)} failed or diverged.</p>", "<h2>Claims of 002 Sec. VI</h2>",
             claims.to_html(index=False) if len(claims) else "<p>no drop runs</p>",
-            "<h2>Medians per scenario and policy</h2>", medians.round(3).to_html(),
+            "<h2>Pre-impact strategies (none vs reshape)</h2>"]
+    for title, table in pre_tables.items():
+        body += [f"<h3>{html.escape(title)}</h3>", table.to_html(index=False) if len(table) else "<p>no runs</p>"]
+    body += [_img(p) for p in pre_paths if p.suffix == ".png"]
+    body += ["<h2>Medians per scenario, strategy and policy</h2>", medians.round(3).to_html(),
             "<h2>Sweep comparisons</h2>"] + [_img(p) for p in sweep_paths if p.suffix == ".png"]
     for point, paths in figures.items():
         body += [f"<h2>{html.escape(point)}</h2>"] + [_img(p) for p in paths if p.suffix == ".png"]
@@ -83,4 +93,4 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
             "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px}</style></head><body>"
             + "\n".join(body) + "</body></html>")
     (out / "index.html").write_text(page)
-    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths
+    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths + pre_paths

@@ -41,7 +41,7 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
 
 def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Claims over the single 1 m drop and over every drop run of the sweep."""
-    drops = runs[(runs.status == "ok") & runs.scenario.str.contains("drop")]
+    drops = runs[(runs.status == "ok") & runs.scenario.str.contains("drop") & (runs.pre_impact == "none")]
     rows: list[dict[str, str]] = []
     height = "param:initial.height"
     if height in drops.columns:

@@ -8,6 +8,7 @@ matplotlib.use("Agg")  # files only, no screen
 
 POLICY_COLOURS = {"stiff": "#d62728", "oneshot": "#ff7f0e", "zero": "#7f7f7f", "adaptive_qp": "#1f77b4"}
 POLICY_ORDER = list(POLICY_COLOURS)
+STRATEGY_LINES = {"none": "--", "reshape": "-"}  # line style per pre-impact strategy
 
 
 def colour(policy: str) -> str:

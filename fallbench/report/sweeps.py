@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from fallbench.report.figures import _save
-from fallbench.report.style import colour, ordered
+from fallbench.report.style import STRATEGY_LINES, colour, ordered
 
 KEY_METRICS = {
     "imu_peak_z": "IMU z peak (m/s$^2$)",
@@ -49,9 +49,10 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
                 continue
             fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
             for ax, metric in zip(axes, ["imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max"]):
-                for policy in ordered(group.policy.unique()):
-                    medians = group[group.policy == policy].groupby(param)[metric].median()
-                    ax.plot(medians.index, medians.to_numpy(), marker="o", color=colour(policy), label=policy)
+                for (strategy, policy), lines in group.groupby(["pre_impact", "policy"]):
+                    medians = lines.groupby(param)[metric].median()
+                    ax.plot(medians.index, medians.to_numpy(), marker="o", color=colour(policy),
+                            linestyle=STRATEGY_LINES.get(strategy, "-."), label=f"{policy} ({strategy})")
                 ax.set(xlabel=_axis(param), ylabel=KEY_METRICS[metric], title=KEY_METRICS[metric].split(" (")[0])
                 ax.grid(alpha=0.3)
             axes[0].legend(fontsize=8)
@@ -67,7 +68,7 @@ def _axis(param: str) -> str:
 
 
 def median_table(runs: pd.DataFrame) -> pd.DataFrame:
-    grouped = runs.groupby(["scenario", "policy"])
+    grouped = runs.groupby(["scenario", "pre_impact", "policy"])
     table = grouped[list(KEY_METRICS)].median(numeric_only=True)
     table.insert(0, "runs", grouped.size())
     table.insert(1, "failed", grouped.apply(lambda g: int((g.status != "ok").sum()), include_groups=False))

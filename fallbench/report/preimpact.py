@@ -1,0 +1,130 @@
+"""Pre-impact comparisons: `none` vs `reshape` per push direction, landing in clutter, and the
+joint trajectories and first-contact timeline of one reshaped fall."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from fallbench import store
+from fallbench.report.figures import _save
+from fallbench.report.style import STRATEGY_LINES
+
+DIRECTION = "param:push.direction"
+STRATEGY_COLOURS = {"none": "#7f7f7f", "reshape": "#2ca02c"}
+TRAJECTORY_JOINTS = {"torso_1_joint": "torso yaw", "arm_left_1_joint": "left shoulder pitch", "arm_left_4_joint": "left elbow",
+                     "arm_left_6_joint": "left wrist pitch", "leg_right_4_joint": "right knee"}
+TIMELINE_GROUPS = ("feet", "knees", "hands", "arms", "torso", "head")
+
+
+def push_label(direction: float) -> str:
+    """The fall a push from half-sitting starts (robot facing +x): front, back, side or diagonal."""
+    angle = direction % 360
+    return {0: "front", 180: "back", 90: "side", 270: "side"}.get(angle, "front diagonal" if angle < 90 or angle > 270 else "back diagonal")
+
+
+def first_impact_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per push class and strategy: where the first impact lands, and head and torso peak forces."""
+    pushes = runs[(runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")]
+    if DIRECTION not in pushes or pushes.empty:
+        return pd.DataFrame()
+    pushes = pushes.assign(fall=pushes[DIRECTION].map(push_label))
+    rows = []
+    for (fall, strategy), group in pushes.groupby(["fall", "pre_impact"]):
+        first = group.first_impact_group
+        rows.append({
+            "push": fall, "pre_impact": strategy, "falls": len(group),
+            "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
+            "first on knees (%)": round(100 * first.str.contains("knees").mean()),
+            "first on arms/elbows (%)": round(100 * first.str.contains("arms").mean()),
+            "first on torso/head (%)": round(100 * first.str.contains("torso|head").mean()),
+            "head peak median (N)": round(group.contact_force_peak_head.median()),
+            "torso peak median (N)": round(group.contact_force_peak_torso.median()),
+            "time to first impact median (s)": round(group.time_to_first_impact.median(), 3),
+        })
+    return pd.DataFrame(rows)
+
+
+def clutter_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per obstacle scenario and strategy: landing error, obstacle contacts, head and torso peaks."""
+    cluttered = runs[(runs.status == "ok") & (runs.obstacle_force_peak.notna()) & ~runs.scenario.str.startswith(("push", "drop", "ci_"))]
+    rows = []
+    for (scenario, strategy), group in cluttered.groupby(["scenario", "pre_impact"]):
+        rows.append({
+            "scenario": scenario, "pre_impact": strategy, "runs": len(group),
+            "landing error median (m)": round(group.landing_error.median(), 3),
+            "landing error max (m)": round(group.landing_error.max(), 3),
+            "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
+            "head peak median (N)": round(group.contact_force_peak_head.median()),
+            "torso peak median (N)": round(group.contact_force_peak_torso.median()),
+            "obstacle peak median (N)": round(group.obstacle_force_peak.median()),
+        })
+    return pd.DataFrame(rows)
+
+
+def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
+    pushes = runs[(runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")]
+    if DIRECTION not in pushes or pushes.pre_impact.nunique() < 2:
+        return []
+    directions = sorted(pushes[DIRECTION].unique())
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
+    width = 0.38
+    for offset, strategy in zip((-width / 2, width / 2), ("none", "reshape")):
+        group = pushes[pushes.pre_impact == strategy].groupby(DIRECTION)
+        x = np.arange(len(directions)) + offset
+        for ax, values in zip(axes, (100 * group.first_impact_safe.mean(), group.contact_force_peak_head.median(),
+                                     group.contact_force_peak_torso.median())):
+            ax.bar(x, values.reindex(directions).to_numpy(), width, color=STRATEGY_COLOURS[strategy], label=strategy)
+    titles = ("first impact on hands or feet (% of runs)", "head peak contact force, median (N)", "torso peak contact force, median (N)")
+    for ax, title in zip(axes, titles):
+        ax.set_xticks(range(len(directions)), [f"{d:g}\n{push_label(d)}" for d in directions], fontsize=8)
+        ax.set(xlabel="push direction (deg, 0 = robot forward)", title=title)
+        ax.grid(alpha=0.3, axis="y")
+    axes[0].legend(title="pre-impact")
+    fig.suptitle(f"Pushes from half-sitting: none vs reshape ({len(pushes)} runs that fell, all gain policies)")
+    return _save(fig, out, "preimpact_first_impact")
+
+
+def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
+    """Joint trajectories and the first-contact timeline of one point, with and without reshaping."""
+    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index("pre_impact")
+    if not {"none", "reshape"} <= set(rows.index):
+        return []
+    series = {s: store.load_timeseries(results, rows.loc[s, "run_id"]) for s in ("none", "reshape")}
+    fig, axes = plt.subplots(1, 2, figsize=(15, 4.5), gridspec_kw={"width_ratios": [3, 2]})
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for (joint, label), c in zip(TRAJECTORY_JOINTS.items(), colours):
+        for strategy, ts in series.items():
+            axes[0].plot(ts.t, ts[f"q:{joint}"], color=c, linestyle=STRATEGY_LINES[strategy],
+                         label=f"{label} ({strategy})" if strategy == "reshape" else None)
+    fall = rows.loc["reshape", "fall_time"]
+    axes[0].axvline(fall, color="black", linestyle=":", linewidth=0.8, label="fall detected")
+    axes[0].set(xlabel="time (s)", ylabel="joint angle (rad)", title="joints: reshape solid, none dashed")
+    axes[0].legend(fontsize=7, ncol=2)
+    axes[0].grid(alpha=0.3)
+    for row, (strategy, ts) in enumerate(series.items()):
+        for k, group in enumerate(TIMELINE_GROUPS):
+            touching = ts[f"force:{group}"].to_numpy() > 0
+            y = k + (0.2 if strategy == "reshape" else -0.2)
+            axes[1].fill_between(ts.t, y - 0.15, y + 0.15, where=touching, color=STRATEGY_COLOURS[strategy],
+                                 label=strategy if k == 0 else None, step="mid")
+    axes[1].set_yticks(range(len(TIMELINE_GROUPS)), TIMELINE_GROUPS)
+    axes[1].set_xlim(fall - 0.1, min(series["reshape"].t.max(), fall + 1.6))
+    axes[1].axvline(fall, color="black", linestyle=":", linewidth=0.8)
+    axes[1].set(xlabel="time (s)", title="contact with the environment, per body group")
+    axes[1].legend(fontsize=8)
+    fig.suptitle(f"{point}, {policy}: reshaped fall vs none")
+    stem = "reshaped_fall_" + "".join(c if c.isalnum() else "_" for c in point).strip("_") + f"_{policy}"
+    return _save(fig, out, stem)
+
+
+def preimpact_report(runs: pd.DataFrame, results: Path, out: Path) -> tuple[list[Path], dict[str, pd.DataFrame]]:
+    paths = first_impact_figure(runs, out)
+    for point in ("push_200N[push.direction=0]#s0", "push_200N[push.direction=180]#s0"):
+        paths += reshaped_fall_figure(runs, results, out, point, "stiff")
+    tables = {"First impact and head/torso peak forces of pushes, per push direction": first_impact_table(runs),
+              "Landing among obstacles": clutter_table(runs)}
+    return paths, tables

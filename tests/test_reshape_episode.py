@@ -1,0 +1,49 @@
+"""The reshape strategy in an episode: motors switch to the gain policy chain by chain (002 Sec. V)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fallbench.episode import Recording, run_episode
+from fallbench.metrics import compute_metrics
+from fallbench.scenario import Push, Scenario
+
+BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1))
+
+
+@pytest.fixture(scope="module")
+def reshaped() -> Recording:
+    return run_episode(BACK_PUSH, "zero", "reshape")
+
+
+def _first_switch(rec: Recording) -> np.ndarray:
+    """Servo stiffness (Nm/rad) per motor at the first physics step where the zero policy took any."""
+    off = (rec.kp == 0).any(axis=1)
+    assert off.any(), "no motor ever switched to the zero policy"
+    return rec.kp[np.argmax(off)]
+
+
+def test_only_the_impacting_chain_switches_first(reshaped: Recording) -> None:
+    world = reshaped.world
+    assert reshaped.status == "ok"
+    assert reshaped.impact_events[0].group == "hands"
+    kp = _first_switch(reshaped)
+    arm = [i for i, j in enumerate(world.joint_names) if j.startswith("arm_")]
+    legs = [i for i, j in enumerate(world.joint_names) if j.startswith("leg_")]
+    assert (kp[arm] == 0).any()  # a hand's chain: its arm (and the torso) now follow the policy
+    np.testing.assert_array_equal(kp[legs], world.default_kp[legs])  # the legs still reshape, stiff
+
+
+def test_without_reshaping_every_motor_switches_at_once() -> None:
+    rec = run_episode(BACK_PUSH, "zero", "none")
+    np.testing.assert_array_equal(_first_switch(rec), 0.0)
+
+
+def test_reshape_metrics(reshaped: Recording) -> None:
+    row = compute_metrics(reshaped)
+    assert row["fall_class"] == "back" and row["fall_class_at_detection"] == "back"
+    assert row["preimpact_qp_steps"] > 50 and row["preimpact_qp_ms_median"] > 0
+    assert 0 < row["landing_error"] < 2.0  # m from the chosen BIP to the wrist's first contact
+    assert row["time_to_first_impact"] == pytest.approx(reshaped.impact_events[0].t - reshaped.fall_time)
+    assert row["first_impact_group"] == "hands" and row["first_impact_safe"]
