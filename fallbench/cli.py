@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import sys
 from pathlib import Path
 from typing import Optional
@@ -92,7 +93,9 @@ def run_sweep_command(
     files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push and obstacle scenarios)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
-    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes."),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."),
+    backend: str = typer.Option("loky", help="loky: processes on this machine; dask: a Dask cluster (needs `pip install 'fallbench[dask]'`)."),
+    scheduler: str = typer.Option(None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster of --jobs workers)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
     strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
@@ -101,12 +104,19 @@ def run_sweep_command(
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
     Interrupted sweeps resume: finished runs are skipped. Failed runs are stored with their status.
+    Workers only simulate; this process writes the store, so Dask workers need no shared disk.
     """
-    from fallbench.runner import expand, run_sweep
+    from fallbench.runner import BACKENDS, expand, run_sweep
 
+    if backend not in BACKENDS:
+        fail(f"--backend: unknown backend {backend!r}; known: {', '.join(BACKENDS)}")
+    if scheduler and backend != "dask":
+        fail("--scheduler needs --backend dask")
+    if backend == "dask" and importlib.util.find_spec("distributed") is None:
+        fail("--backend dask needs Dask's distributed scheduler: pip install 'fallbench[dask]'")
     points = _load(files or SHIPPED)
     specs = expand(points, _policies(policies), _strategies(pre_impact))
-    table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty())
+    table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty(), backend=backend, scheduler=scheduler)
     keys = ["scenario", "pre_impact", "policy"]
     summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())

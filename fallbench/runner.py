@@ -1,4 +1,8 @@
-"""Sweeps: expand scenarios into runs, execute them with joblib, store each one, resume.
+"""Sweeps: expand scenarios into runs, simulate them with joblib, store each one, resume.
+
+Workers (loky processes on this machine, or Dask workers on a cluster) only simulate and return
+the metric row and time series; this process stores each run as it arrives. So a cluster needs no
+shared file system, and the store is written by one process only.
 
 One failing run never stops a sweep: it is stored with status `error` (exception) or `diverged`
 (unstable simulation) and the sweep goes on.
@@ -9,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import time
 import traceback
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from functools import cache
 from importlib.metadata import version
@@ -18,7 +23,7 @@ from typing import Any, Iterator
 import mujoco
 import numpy as np
 import pandas as pd
-from joblib import Parallel, delayed
+from joblib import Parallel, delayed, parallel_config
 from tqdm import tqdm
 
 import fallbench
@@ -84,8 +89,15 @@ def _identity(spec: RunSpec) -> dict[str, Any]:
     return row
 
 
-def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
-    """Run one case, store it, return its metric row. Never raises for a failing simulation."""
+@dataclass
+class Outcome:
+    spec: RunSpec
+    row: dict[str, Any]
+    series: pd.DataFrame | None
+
+
+def simulate(spec: RunSpec) -> Outcome:
+    """Run one case and compute its metrics. Never raises for a failing simulation."""
     from fallbench.episode import run_episode
     from fallbench.metrics import compute_metrics, timeseries
 
@@ -103,25 +115,59 @@ def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
         where = traceback.extract_tb(exc.__traceback__)[-1]
         row["error"] = f"{type(exc).__name__}: {exc} (at {Path(where.filename).name}:{where.lineno})"
     row["wall_time_s"] = time.perf_counter() - started
-    store.write_run(results, row["run_id"], spec.resolved() | {"point": spec.point.label}, row, series)
-    return row
+    return Outcome(spec, row, series)
 
 
-def _backend_jobs(jobs: int) -> Parallel:
-    return Parallel(n_jobs=jobs, backend="loky" if jobs != 1 else "sequential", return_as="generator_unordered")
+def store_outcome(results: Path, outcome: Outcome) -> dict[str, Any]:
+    spec = outcome.spec
+    store.write_run(results, outcome.row["run_id"], spec.resolved() | {"point": spec.point.label}, outcome.row, outcome.series)
+    return outcome.row
 
 
-def run_sweep(specs: list[RunSpec], results: Path, jobs: int = 2, progress: bool = True) -> pd.DataFrame:
+def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
+    """Run one case in this process, store it, return its metric row."""
+    return store_outcome(results, simulate(spec))
+
+
+BACKENDS = ("loky", "dask")
+
+
+@contextmanager
+def parallel_backend(backend: str, jobs: int, scheduler: str | None = None) -> Iterator[Parallel]:
+    """joblib's Parallel on local processes (loky), or on a Dask cluster: the scheduler at
+    `scheduler`, or a LocalCluster of `jobs` single-threaded worker processes."""
+    if backend == "loky":
+        yield Parallel(n_jobs=jobs, backend="loky" if jobs != 1 else "sequential", return_as="generator_unordered")
+        return
+    if backend != "dask":
+        raise ValueError(f"unknown backend {backend!r}; known: {', '.join(BACKENDS)}")
+    from dask.distributed import Client, LocalCluster
+
+    with ExitStack() as stack:
+        if scheduler:
+            stack.enter_context(Client(scheduler))
+        else:
+            cluster = stack.enter_context(LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
+                                                       dashboard_address=None))
+            stack.enter_context(Client(cluster))
+        stack.enter_context(parallel_config(backend="dask", wait_for_workers_timeout=60))
+        yield Parallel(n_jobs=-1, return_as="generator_unordered")
+
+
+def run_sweep(specs: list[RunSpec], results: Path, jobs: int = 2, progress: bool = True,
+              backend: str = "loky", scheduler: str | None = None) -> pd.DataFrame:
     """Run the specs not yet stored, then rebuild the consolidated table and return it."""
     results.mkdir(parents=True, exist_ok=True)
     unique = {s.run_id: s for s in specs}
     todo = [s for rid, s in unique.items() if not store.is_done(results, rid)]
     if todo:
-        rows: Iterator[dict[str, Any]] = _backend_jobs(jobs)(delayed(execute)(s, results) for s in todo)
-        bar = tqdm(rows, total=len(todo), desc="falls", unit="run", disable=not progress,
-                   initial=0, postfix={"skipped": len(unique) - len(todo)})
-        for row in bar:
-            bar.set_postfix_str(f"{row['policy']} {row['point']}: {row['status']}")
+        with parallel_backend(backend, jobs, scheduler) as parallel:
+            outcomes: Iterator[Outcome] = parallel(delayed(simulate)(s) for s in todo)
+            bar = tqdm(outcomes, total=len(todo), desc="falls", unit="run", disable=not progress,
+                       initial=0, postfix={"skipped": len(unique) - len(todo)})
+            for outcome in bar:
+                row = store_outcome(results, outcome)
+                bar.set_postfix_str(f"{row['pre_impact']}/{row['policy']} {row['point']}: {row['status']}")
     table = store.consolidate(results)
     wanted = set(unique)
     return table[table["run_id"].isin(wanted)] if not table.empty else table
