@@ -178,6 +178,38 @@ def export_command(
     typer.echo(f"wrote {out} ({chosen.label})")
 
 
+@app.command("bench")
+def bench_command(
+    scenario: Path = typer.Option(Path("scenarios/drop.yaml"), help="Scenario file to measure on."),
+    point: list[str] = typer.Option(["initial.height=1.0"], help="Sweep point of the file: an index, or key=value (repeatable)."),
+    pre_impact: str = typer.Option("none", help="Pre-impact strategy of the measured episodes."),
+    repeats: int = typer.Option(5, min=1, help="Repeats per measurement (medians are reported)."),
+    sweep_runs: int = typer.Option(48, min=4, help="Runs in the 1-job vs 2-job throughput sweep (fewer: the last long run alone on one worker weighs more)."),
+    out: Path = typer.Option(Path("reports/bench.md"), help="Markdown table to write."),
+    json_path: Optional[Path] = typer.Option(None, "--json", help="Also write every figure as one flat JSON object."),
+) -> None:
+    """Measure speed against the physics limit, 2-job scaling, memory and bytes per run.
+
+    Prints and writes a table: pure-physics steps/s; per policy, episode time / pure physics and /
+    its own physics time, controller cost per control step; adaptive_qp's QP model, build and solve
+    times; runs/s with 1 and 2 jobs; peak RSS per worker; bytes stored per run; the targets.
+    """
+    import json
+
+    from fallbench.bench import markdown, run_bench
+
+    chosen = _select(_load([scenario]), point, scenario)
+    figures = run_bench(chosen, _strategies(pre_impact)[0], repeats, sweep_runs, progress=lambda m: typer.echo(f"bench: {m}", err=True))
+    table = markdown(figures)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(table)
+    typer.echo(table)
+    if json_path is not None:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(figures, indent=1) + "\n")
+    typer.echo(f"wrote {out}" + (f" and {json_path}" if json_path else ""))
+
+
 @app.command("report")
 def report_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),

@@ -58,6 +58,7 @@ class Recording:
     impact_time: float | None  # s, control step at which the policy switched
     impact_bodies: list[str]
     controller_ms: np.ndarray  # ms per control step spent in the strategy and the policy
+    physics_s: float = 0.0  # s of wall time inside mj_step
     pre_impact: str = "none"
     impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
     landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
@@ -67,10 +68,22 @@ class Recording:
     error: str = ""
 
 
-def _touching(world: World, sensor_rows: np.ndarray) -> set[str]:
-    """Robot bodies whose contact sensor found a contact in any of these sensor rows."""
-    found = sensor_rows[:, world.contact_found_columns].max(axis=0) > 0
-    return {world.contact_bodies[i] for i in np.flatnonzero(found)}
+def _found(world: World, sensor_rows: np.ndarray) -> np.ndarray:
+    """Per contact body: whether its contact sensor found a contact in any of these sensor rows."""
+    return sensor_rows[:, world.contact_found_columns].max(axis=0) > 0
+
+
+def _names(world: World, mask: np.ndarray) -> set[str]:
+    return {world.contact_bodies[i] for i in np.flatnonzero(mask)}
+
+
+def _held(changes: list[tuple[int, ServoCommand]], n_control: int, nu: int) -> np.ndarray:
+    """(4, n_control, nu) kp, kd, q_ref, qd_ref per control step from the steps where they changed."""
+    gains = np.empty((4, n_control, nu))
+    ends = [k for k, _ in changes[1:]] + [n_control]
+    for (start, command), end in zip(changes, ends):
+        gains[:, start:end] = np.stack([command.kp, command.kd, command.q_ref, command.qd_ref])[:, None, :]
+    return gains
 
 
 def _push_force(world: World, scenario: Scenario) -> tuple[int, np.ndarray] | None:
@@ -108,7 +121,6 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     rec_qpos = np.zeros((n_steps, model.nq))
     rec_qvel = np.zeros((n_steps, model.nv))
     rec_force = np.zeros((n_steps, model.nu))
-    gains = np.zeros((4, n_control, model.nu))  # kp, kd, q_ref, qd_ref per control step
     controller_ms = np.zeros(n_control)
 
     q_start = data.qpos[world.qpos_adr].copy()
@@ -121,43 +133,53 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     torso_rotation = np.zeros(9)
     mujoco.mj_forward(model, data)
     sensor_row = data.sensordata.copy()
-    status, error, step = "ok", "", 0
+    status, error, step, physics_s = "ok", "", 0, 0.0
     # Views into MjData bound once: each attribute access would build a new array wrapper.
     qpos, qvel, sensordata, actuator_force = data.qpos, data.qvel, data.sensordata, data.actuator_force
+    qacc, warning_counts = data.qacc, data.warning.number
+    seen = np.zeros(len(world.contact_bodies), dtype=bool)  # bodies in contact at detection or since
 
-    def recent_touching() -> set[str]:
-        return _touching(world, rec_sensor[max(step - per_control, 0) : step] if step else sensor_row[None])
+    def recent_found() -> np.ndarray:
+        return _found(world, rec_sensor[max(step - per_control, 0) : step] if step else sensor_row[None])
 
     written: ServoCommand | None = None
+    changes: list[tuple[int, ServoCommand]] = []  # (control step, command) where the servo changed
+    policy_command: ServoCommand | None = None
     for k in range(n_control):
         t = k * scenario.control_dt
         started = time.perf_counter()
         if fall.time is None:
             mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
             if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
-                impact.start(recent_touching())
+                seen = recent_found()
+                impact.start(_names(world, seen))
                 if strategy is not None:
                     strategy.start(qpos, qvel, qpos[world.qpos_adr], qvel[world.qvel_adr])
+        switch_changed = False
         if fall.time is not None:
-            touching = recent_touching()
-            new = touching - (impact.support or set())
-            impact.update(t, touching)
-            impacts.update(t, new, data, qpos, qvel)
-            if impact.time is not None and not switched.all():
-                q = qpos[world.qpos_adr]
-                now = np.ones(model.nu, dtype=bool) if strategy is None or new & landed_bodies else switched.copy()
-                now[select_motors(P, new, world.joint_names)] = True
-                if (now & ~switched).any():
-                    q_ref_impact = np.where(now & ~switched, q, q_ref_impact if q_ref_impact is not None else q)
-                    switched = now
+            fresh = recent_found() & ~seen
+            if fresh.any():  # bodies touching for the first time since the fall was detected
+                seen |= fresh
+                new = _names(world, fresh)
+                impact.update(t, new)
+                impacts.update(t, new, data, qpos, qvel)
+                if impact.time is not None and not switched.all():
+                    now = np.ones(model.nu, dtype=bool) if strategy is None or new & landed_bodies else switched.copy()
+                    now[select_motors(P, new, world.joint_names)] = True
+                    if (now & ~switched).any():
+                        q = qpos[world.qpos_adr]
+                        q_ref_impact = np.where(now & ~switched, q, q_ref_impact if q_ref_impact is not None else q)
+                        switched, switch_changed = now, True
             if strategy is not None and not switched.all():
                 pre_command = strategy.step(t, data, qpos, qvel)
         if switched.any():
-            q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
-            touching_now = recent_touching() if policy.needs_contacts else set()
-            observation = Observation(t, qpos.copy(), qvel.copy(), q, qd, touching_now, data)
-            assert q_ref_impact is not None
-            command = _compose(switched, policy.after_impact(observation, q_ref_impact), pre_command)
+            if switch_changed or not policy.static or policy_command is None:
+                q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
+                touching_now = _names(world, recent_found()) if policy.needs_contacts else set()
+                observation = Observation(t, qpos.copy(), qvel.copy(), q, qd, touching_now, data)
+                assert q_ref_impact is not None
+                policy_command = policy.after_impact(observation, q_ref_impact)
+            command = _compose(switched, policy_command, pre_command)
         else:
             command = pre_command
         if fall.time is not None:
@@ -165,7 +187,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
         if command is not written:
             write_servo(model, data, command)
             written = command
-        gains[:, k] = command.kp, command.kd, command.q_ref, command.qd_ref
+            changes.append((k, command))
         if push is not None:
             active = scenario.push.start <= t < scenario.push.start + scenario.push.duration
             data.xfrc_applied[push[0]] = push[1] if active else 0.0
@@ -173,19 +195,20 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
         for _ in range(per_control):
             rec_qpos[step] = qpos
             rec_qvel[step] = qvel
+            stepped = time.perf_counter()
             mujoco.mj_step(model, data)
+            physics_s += time.perf_counter() - stepped
             # sensors and actuator forces are computed inside the step, from the state before it
             rec_sensor[step] = sensordata
             rec_force[step] = actuator_force
             step += 1
         sensor_row = rec_sensor[step - 1]
-        warnings = data.warning.number
-        if warnings[DIVERGENCE_WARNINGS].any() or not np.isfinite(data.qacc).all():
+        if warning_counts[DIVERGENCE_WARNINGS].any() or not np.isfinite(qacc).all():
             status = "diverged"
-            error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if warnings[w]) or "non-finite state"
+            error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if warning_counts[w]) or "non-finite state"
             break
 
-    held = np.repeat(gains[:, : k + 1], per_control, axis=1)[:, :step]
+    held = np.repeat(_held(changes, k + 1, model.nu), per_control, axis=1)[:, :step]
     landing_errors: dict[str, float] = {}
     if strategy is not None:
         for side in world.robot.arms:
@@ -198,7 +221,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
         qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
         fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,
-        controller_ms=controller_ms[: k + 1], pre_impact=pre_impact, impact_events=impacts.events,
+        controller_ms=controller_ms[: k + 1], physics_s=physics_s, pre_impact=pre_impact, impact_events=impacts.events,
         landing_errors=landing_errors, policy_stats=policy.stats() | (strategy.stats() if strategy else {}),
         steps=step, status=status, error=error,
     )

@@ -93,3 +93,17 @@ def test_friction_generators_are_unit_and_inside_the_cone() -> None:
     np.testing.assert_allclose(np.linalg.norm(G, axis=0), 1.0)
     tangential = np.linalg.norm(G[:2], axis=0)
     np.testing.assert_allclose(tangential / G[2], 0.5)  # on the cone's edge: |f_t| = mu f_n
+
+
+def test_points_of_one_body_match_one_at_a_time(P: PinocchioModel) -> None:
+    q, v = _state(P, 3)
+    first, second = _point(P, q), _point(P, q)
+    second.position = second.position + np.array([0.05, 0.02, 0.0])
+    pin.computeJointJacobians(P.model, P.data, q)
+    pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
+    pin.updateFramePlacements(P.model, P.data)
+    both = contact_kinematics(P, v, [first, second])
+    alone = contact_kinematics(P, v, [second])
+    np.testing.assert_allclose(both.jacobian[3:], alone.jacobian, atol=1e-12)
+    np.testing.assert_allclose(both.drift[3:], alone.drift, atol=1e-12)
+    assert not np.allclose(both.jacobian[:3], both.jacobian[3:])

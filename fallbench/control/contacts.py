@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 from fallbench.control.model import PinocchioModel
-from fallbench.control.tasks.body_point import BodyPoint
+from fallbench.control.tasks.body_point import points_kinematics
 
 
 @dataclass
@@ -69,15 +69,16 @@ def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: f
 
 
 def contact_kinematics(P: PinocchioModel, v: np.ndarray, points: list[ContactPoint]) -> ContactKinematics:
-    """Point Jacobians, drifts and velocities; needs forwardKinematics(q, v, 0) and
-    computeJointJacobians(q) done on P.data."""
+    """Point Jacobians, drifts and velocities, one frame computation per contact body; needs
+    forwardKinematics(q, v, 0) and computeJointJacobians(q) done on P.data."""
     model, data = P.model, P.data
     n = len(points)
-    jacobian = np.zeros((3 * n, model.nv))
-    drift = np.zeros(3 * n)
-    for i, point in enumerate(points):
-        placement = data.oMf[model.getFrameId(point.body)]
-        local = placement.rotation.T @ (point.position - placement.translation)
-        rows = slice(3 * i, 3 * i + 3)
-        _, jacobian[rows], drift[rows] = BodyPoint(point.body, local).kinematics(model, data)
-    return ContactKinematics(jacobian, drift, jacobian @ v)
+    jacobian = np.zeros((n, 3, model.nv))
+    drift = np.zeros((n, 3))
+    for body in {p.body for p in points}:
+        rows = [i for i, p in enumerate(points) if p.body == body]
+        origin = data.oMf[model.getFrameId(body)].translation
+        offsets = np.array([points[i].position for i in rows]) - origin
+        jacobian[rows], drift[rows] = points_kinematics(model, data, body, offsets)
+    jacobian = jacobian.reshape(3 * n, model.nv)
+    return ContactKinematics(jacobian, drift.reshape(3 * n), jacobian @ v)

@@ -34,6 +34,7 @@ class GainPolicy(ABC):
 
     name: str = ""
     needs_contacts: bool = False  # whether `Observation.touching` must be filled after impact
+    static: bool = False  # True: the command depends only on q_ref, so it is asked for again only when q_ref changes
 
     defaults: dict[str, Any] = {}
 
@@ -61,6 +62,7 @@ class GainPolicy(ABC):
 class FixedGainPolicy(GainPolicy):
     """A policy that sets constant gains at impact and holds q_ref."""
 
+    static = True
     command: ServoCommand | None = None
 
     @abstractmethod

@@ -1,4 +1,5 @@
-"""A point fixed in a robot body: world position, Jacobian and drift (shared by the point tasks)."""
+"""Points fixed in a robot body: world positions, Jacobians and drifts (shared by the point tasks
+and the contact points)."""
 
 from __future__ import annotations
 
@@ -10,23 +11,30 @@ import pinocchio as pin
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
+def points_kinematics(model: pin.Model, data: pin.Data, frame: str, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians (m, 3, nv) and drifts J_dot q_dot (m, 3) of m points of one body, given as world-frame
+    offsets (m, 3) from the body's origin. One frame Jacobian, velocity and acceleration for all.
+
+    Needs forwardKinematics(q, v, 0), computeJointJacobians(q) and updateFramePlacements.
+    """
+    frame_id = model.getFrameId(frame)
+    J6 = pin.getFrameJacobian(model, data, frame_id, LWA)
+    omega = pin.getFrameVelocity(model, data, frame_id, LWA).angular
+    acc = pin.getFrameClassicalAcceleration(model, data, frame_id, LWA)
+    # v_p = v + omega x r: the angular columns contribute -r x J_angular = J_angular x r
+    jacobians = J6[None, :3, :] + np.cross(J6[3:].T[None, :, :], offsets[:, None, :]).transpose(0, 2, 1)
+    drifts = acc.linear + np.cross(acc.angular, offsets) + np.cross(omega, np.cross(omega, offsets))
+    return jacobians, drifts
+
+
 @dataclass
 class BodyPoint:
     frame: str  # Pinocchio frame of the body
     local: np.ndarray  # m, in the body frame
 
     def kinematics(self, model: pin.Model, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(position, Jacobian (3, nv), drift J_dot q_dot) in the world frame.
-
-        Needs forwardKinematics(q, v, 0), computeJointJacobians(q) and updateFramePlacements.
-        """
-        frame = model.getFrameId(self.frame)
-        placement = data.oMf[frame]
+        """(position, Jacobian (3, nv), drift J_dot q_dot) in the world frame."""
+        placement = data.oMf[model.getFrameId(self.frame)]
         offset = placement.rotation @ self.local
-        J6 = pin.getFrameJacobian(model, data, frame, LWA)
-        twist = pin.getFrameVelocity(model, data, frame, LWA)
-        acc = pin.getFrameClassicalAcceleration(model, data, frame, LWA)
-        omega = twist.angular
-        jacobian = J6[:3] - pin.skew(offset) @ J6[3:]
-        drift = acc.linear + np.cross(acc.angular, offset) + np.cross(omega, np.cross(omega, offset))
-        return placement.translation + offset, jacobian, drift
+        jacobians, drifts = points_kinematics(model, data, self.frame, offset[None, :])
+        return placement.translation + offset, jacobians[0], drifts[0]
