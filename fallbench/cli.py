@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib.util
 import sys
 from pathlib import Path
-from typing import Optional
+from typing import Iterable, Optional
 
 import typer
 
@@ -38,24 +38,25 @@ def _load(files: list[Path]) -> list[ScenarioPoint]:
     raise AssertionError  # unreachable: fail() exits
 
 
+def _names(text: str, known: Iterable[str], option: str, what: str) -> list[str]:
+    """A comma-separated option's names, each checked against the known ones."""
+    names = [p.strip() for p in text.split(",") if p.strip()]
+    for name in names:
+        if name not in known:
+            fail(f"{option}: unknown {what} {name!r}; known: {', '.join(known)}")
+    return names
+
+
 def _policies(text: str) -> list[str]:
     from fallbench.policies import POLICIES
 
-    names = [p.strip() for p in text.split(",") if p.strip()]
-    for name in names:
-        if name not in POLICIES:
-            fail(f"--policies: unknown policy {name!r}; known: {', '.join(POLICIES)}")
-    return names
+    return _names(text, POLICIES, "--policies", "policy")
 
 
 def _strategies(text: str) -> list[str]:
     from fallbench.preimpact import STRATEGIES
 
-    names = [p.strip() for p in text.split(",") if p.strip()]
-    for name in names:
-        if name not in STRATEGIES:
-            fail(f"--pre-impact: unknown strategy {name!r}; known: {', '.join(STRATEGIES)}")
-    return names
+    return _names(text, STRATEGIES, "--pre-impact", "strategy")
 
 
 PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape); a scenario's own `pre_impact` list wins."

@@ -48,21 +48,16 @@ def test_bad_scenario_is_one_clear_line(case: str, tmp_path: Path) -> None:
     assert not results.exists()
 
 
-def test_unknown_policy_is_rejected(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--policies", "stiff,floppy", "--policies: unknown policy 'floppy'; known: stiff, oneshot, zero, adaptive_qp"),
+    ("--pre-impact", "none,flail", "--pre-impact: unknown strategy 'flail'; known: none, reshape"),
+])
+def test_unknown_policy_or_strategy_is_rejected(tmp_path: Path, option: str, value: str, message: str) -> None:
     path = tmp_path / "ok.yaml"
     path.write_text(GOOD)
-    result = CliRunner().invoke(app, ["run", "sweep", str(path), "--policies", "stiff,floppy", "--results", str(tmp_path / "r")])
+    result = CliRunner().invoke(app, ["run", "sweep", str(path), option, value, "--results", str(tmp_path / "r")])
     assert result.exit_code == 2
-    assert "unknown policy 'floppy'" in result.stderr
-    assert not (tmp_path / "r").exists()
-
-
-def test_unknown_pre_impact_strategy_is_rejected(tmp_path: Path) -> None:
-    path = tmp_path / "ok.yaml"
-    path.write_text(GOOD)
-    result = CliRunner().invoke(app, ["run", "sweep", str(path), "--pre-impact", "none,flail", "--results", str(tmp_path / "r")])
-    assert result.exit_code == 2
-    assert "--pre-impact: unknown strategy 'flail'; known: none, reshape" in result.stderr
+    assert message in result.stderr
     assert not (tmp_path / "r").exists()
 
 

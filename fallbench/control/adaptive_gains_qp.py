@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from fallbench.control.dense_qp import DenseQP
+from fallbench.control.dense_qp import DenseQP, ScaledQP
 from fallbench.control.contacts import ContactKinematics, ContactPoint, cone_matrix, contact_kinematics, normal_matrix
 from fallbench.control.model import PinocchioModel
 from fallbench.control.tasks.com import ComTask
@@ -56,19 +56,9 @@ class QPConfig:
 
 
 @dataclass
-class QPProblem:
-    """The assembled QP in scaled variables: min 1/2 x'Hx + g'x, Ax = b, l <= Cx <= u, box."""
+class QPProblem(ScaledQP):
+    """The assembled adaptive-gain QP in scaled variables."""
 
-    H: np.ndarray
-    g: np.ndarray
-    A: np.ndarray
-    b: np.ndarray
-    C: np.ndarray
-    l: np.ndarray
-    u: np.ndarray
-    l_box: np.ndarray
-    u_box: np.ndarray
-    scale: np.ndarray  # x_physical = scale * x
     n_qdd: int
     n_lambda: int
     selected: np.ndarray  # indices (actuator order) of the selected motors

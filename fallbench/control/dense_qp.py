@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Protocol
+from dataclasses import dataclass
 
 import numpy as np
 import proxsuite
 
 
-class ScaledQP(Protocol):
+@dataclass
+class ScaledQP:
     """min 1/2 x'Hx + g'x, Ax = b, l <= Cx <= u, l_box <= x <= u_box; physical = scale * x."""
 
     H: np.ndarray

@@ -18,6 +18,7 @@ import numpy as np
 
 from fallbench.control.adaptive_gains_qp import LAMBDA_SCALE, QDD_BOUND, ModelTerms
 from fallbench.control.contacts import ContactPoint, cone_matrix, normal_matrix
+from fallbench.control.dense_qp import ScaledQP
 from fallbench.control.model import PinocchioModel
 
 LIMIT_HORIZON_STEPS = 4  # control steps over which joint limits are respected
@@ -36,17 +37,7 @@ class SetPoint:
 
 
 @dataclass
-class ReshapeProblem:
-    H: np.ndarray
-    g: np.ndarray
-    A: np.ndarray
-    b: np.ndarray
-    C: np.ndarray
-    l: np.ndarray
-    u: np.ndarray
-    l_box: np.ndarray
-    u_box: np.ndarray
-    scale: np.ndarray
+class ReshapeProblem(ScaledQP):
     n_qdd: int
 
 
