@@ -11,6 +11,14 @@ import pinocchio as pin
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
+def skew_stack(vectors: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) cross-product matrices [v]x of m vectors (np.cross is slow on small arrays)."""
+    S = np.zeros((len(vectors), 3, 3))
+    S[:, 0, 1], S[:, 0, 2], S[:, 1, 2] = -vectors[:, 2], vectors[:, 1], -vectors[:, 0]
+    S[:, 1, 0], S[:, 2, 0], S[:, 2, 1] = vectors[:, 2], -vectors[:, 1], vectors[:, 0]
+    return S
+
+
 def points_kinematics(model: pin.Model, data: pin.Data, frame: str, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians (m, 3, nv) and drifts J_dot q_dot (m, 3) of m points of one body, given as world-frame
     offsets (m, 3) from the body's origin. One frame Jacobian, velocity and acceleration for all.
@@ -21,9 +29,11 @@ def points_kinematics(model: pin.Model, data: pin.Data, frame: str, offsets: np.
     J6 = pin.getFrameJacobian(model, data, frame_id, LWA)
     omega = pin.getFrameVelocity(model, data, frame_id, LWA).angular
     acc = pin.getFrameClassicalAcceleration(model, data, frame_id, LWA)
-    # v_p = v + omega x r: the angular columns contribute -r x J_angular = J_angular x r
-    jacobians = J6[None, :3, :] + np.cross(J6[3:].T[None, :, :], offsets[:, None, :]).transpose(0, 2, 1)
-    drifts = acc.linear + np.cross(acc.angular, offsets) + np.cross(omega, np.cross(omega, offsets))
+    # v_p = v + omega x r = v - [r]x omega
+    R = skew_stack(offsets)
+    jacobians = J6[None, :3, :] - R @ J6[3:]
+    omega_x = skew_stack(omega[None, :])[0]
+    drifts = acc.linear - R @ acc.angular + offsets @ (omega_x @ omega_x).T
     return jacobians, drifts
 
 
