@@ -30,7 +30,8 @@ from fallbench.servo import ServoCommand, write_servo
 from fallbench.world import World, build_world, initial_state
 
 LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
-DIVERGENCE_WARNINGS = [int(mujoco.mjtWarning.mjWARN_BADQACC), int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADQPOS)]
+DIVERGENCE_WARNINGS = np.array([int(mujoco.mjtWarning.mjWARN_BADQACC), int(mujoco.mjtWarning.mjWARN_BADQVEL),
+                                int(mujoco.mjtWarning.mjWARN_BADQPOS)])
 
 
 # Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
@@ -70,7 +71,7 @@ class Recording:
 
 def _found(world: World, sensor_rows: np.ndarray) -> np.ndarray:
     """Per contact body: whether its contact sensor found a contact in any of these sensor rows."""
-    return sensor_rows[:, world.contact_found_columns].max(axis=0) > 0
+    return np.take(sensor_rows, world.contact_found_columns, axis=1).max(axis=0) > 0
 
 
 def _names(world: World, mask: np.ndarray) -> set[str]:
@@ -203,7 +204,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
             rec_force[step] = actuator_force
             step += 1
         sensor_row = rec_sensor[step - 1]
-        if warning_counts[DIVERGENCE_WARNINGS].any() or not np.isfinite(qacc).all():
+        if warning_counts[DIVERGENCE_WARNINGS].any() or not math.isfinite(qacc.sum()):  # a NaN or inf anywhere
             status = "diverged"
             error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if warning_counts[w]) or "non-finite state"
             break
