@@ -91,11 +91,11 @@ def _same(swept: object, text: str) -> bool:
 
 @run_app.command("sweep")
 def run_sweep_command(
-    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push and obstacle scenarios)."),
+    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle and clutter scenarios)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."),
-    backend: str = typer.Option("loky", help="loky: processes on this machine; dask: a Dask cluster (needs `pip install 'fallbench[dask]'`)."),
+    backend: str = typer.Option("loky", help="loky: processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra)."),
     scheduler: str = typer.Option(None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster of --jobs workers)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
