@@ -18,6 +18,7 @@ STRATEGY_COLOURS = {"none": "#7f7f7f", "reshape": "#2ca02c"}
 TRAJECTORY_JOINTS = {"torso_1_joint": "torso yaw", "arm_left_1_joint": "left shoulder pitch", "arm_left_4_joint": "left elbow",
                      "arm_left_6_joint": "left wrist pitch", "leg_right_4_joint": "right knee"}
 TIMELINE_GROUPS = ("feet", "knees", "hands", "arms", "torso", "head")
+SHORT_LABELS = {"front": "front", "back": "back", "side": "side", "front diagonal": "fr. diag.", "back diagonal": "bk. diag."}
 
 
 def push_label(direction: float) -> str:
@@ -80,10 +81,10 @@ def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
             ax.bar(x, values.reindex(directions).to_numpy(), width, color=STRATEGY_COLOURS[strategy], label=strategy)
     titles = ("first impact on hands or feet (% of runs)", "head peak contact force, median (N)", "torso peak contact force, median (N)")
     for ax, title in zip(axes, titles):
-        ax.set_xticks(range(len(directions)), [f"{d:g}\n{push_label(d)}" for d in directions], fontsize=8)
+        ax.set_xticks(range(len(directions)), [f"{d:g}\n{SHORT_LABELS[push_label(d)]}" for d in directions], fontsize=8)
         ax.set(xlabel="push direction (deg, 0 = robot forward)", title=title)
         ax.grid(alpha=0.3, axis="y")
-    axes[0].legend(title="pre-impact")
+    fig.legend(*axes[0].get_legend_handles_labels(), title="pre-impact", loc="upper right", ncol=2, fontsize=8)
     fig.suptitle(f"Pushes from half-sitting: none vs reshape ({len(pushes)} runs that fell, all gain policies)")
     return _save(fig, out, "preimpact_first_impact")
 
