@@ -65,3 +65,24 @@ def test_claims_verdicts_follow_the_numbers() -> None:
     rows.loc[rows.policy == "adaptive_qp", "knee_limit_margin"] = -0.1
     table = claims_table(rows)
     assert table.set_index("claim (002 Sec. VI)").loc["adaptive_qp stays off the knee stop", "verdict"].iloc[0] == "does not hold"
+
+
+def test_first_impact_table_counts_by_push_direction() -> None:
+    from fallbench.report.preimpact import first_impact_table, push_label
+
+    rows = pd.DataFrame({
+        "scenario": "push_200N", "status": "ok", "param:push.direction": [0, 0, 180, 180, 180],
+        "pre_impact": ["none", "reshape", "none", "reshape", "reshape"],
+        "first_impact_group": ["knees", "hands", "torso", "hands", "knees+feet"],
+        "first_impact_safe": [False, True, False, True, False],
+        "contact_force_peak_head": [100.0, 50.0, 0.0, 0.0, 10.0], "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 6.0],
+        "time_to_first_impact": [0.5, 0.4, 0.7, 0.6, 0.8],
+    })
+    table = first_impact_table(rows).set_index(["push", "pre_impact"])
+    assert table.loc[("back", "reshape"), "falls"] == 2
+    assert table.loc[("back", "reshape"), "first on hands/feet (%)"] == 50
+    assert table.loc[("back", "reshape"), "first on knees (%)"] == 50
+    assert table.loc[("back", "none"), "first on torso/head (%)"] == 100
+    assert table.loc[("back", "reshape"), "torso peak median (N)"] == 5
+    assert table.loc[("front", "none"), "first on knees (%)"] == 100
+    assert [push_label(d) for d in (0, 45, 90, 180, 225, -90)] == ["front", "front diagonal", "side", "back", "back diagonal", "side"]
