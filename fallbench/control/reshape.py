@@ -57,6 +57,7 @@ class ReshapeConfig:
     knee_bend: float = 1.6  # rad, knee target of the fall posture
     w_lambda: float = 1e-6
     w_qdd: float = 1e-4
+    w_contact: float = 100.0  # contact points neither sinking in nor lifting off (a cost, not a constraint)
     eps_abs: float = 1e-6
     # Iteration caps bound the solver's rare very long solves (seen: 49 s with ProxSuite's
     # defaults); a capped solve counts as a failure and the references coast for that step.
@@ -144,7 +145,7 @@ class ReshapeController:
         tasks.append(SetPoint(cfg.w_posture, self.posture.jacobian(), self.posture.error(q_joints), self.posture.drift(),
                               cfg.task_kp, cfg.task_kv))
         problem = build_reshape_problem(self.P, terms, points, tasks, world.torque_limit, world.joint_range,
-                                        self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd)
+                                        self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd, cfg.w_contact)
         status, solved, _, x = self.qp.solve(problem)
         qdd = x[self.P.actuated_v] if solved and np.isfinite(x).all() else np.zeros(world.model.nu)
         self.failures += not solved
