@@ -73,7 +73,7 @@ class Landing:
 
 
 class ReshapeController:
-    name = "reshape"
+    """The reshaping controller of one episode: `start` at fall detection, then `step` per control step."""
 
     def __init__(self, world: World, scenario: Scenario, params: dict[str, Any] | None = None) -> None:
         self.world, self.scenario = world, scenario
