@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import select_motors
+from fallbench.control.contacts import environment_contacts
 from fallbench.control.fall_singularity import Impact, singular_joints
 from fallbench.control.model import pinocchio_for
 from fallbench.world import World
@@ -67,21 +68,12 @@ class ImpactLog:
         the contact normal stands in for a force not yet built up."""
         model = self.world.model
         found, wrench = [], np.zeros(6)
-        for i in range(data.ncon):
-            contact = data.contact[i]
-            body1, body2 = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
-            if (body1 == 0) == (body2 == 0):
+        for point in environment_contacts(model, data, friction=0.0):
+            if point.body not in bodies:
                 continue
-            robot_body = model.body(body2 if body1 == 0 else body1).name
-            if robot_body not in bodies:
-                continue
-            mujoco.mj_contactForce(model, data, i, wrench)
-            frame = contact.frame.reshape(3, 3)
-            sign = 1.0 if body1 == 0 else -1.0  # the force acts along the normal from geom1 to geom2
-            force = sign * frame.T @ wrench[:3]
-            if np.linalg.norm(force) < 1e-6:
-                force = sign * frame[0]
-            found.append(Impact(robot_body, contact.pos.copy(), force))
+            mujoco.mj_contactForce(model, data, point.index, wrench)
+            force = point.sign * data.contact[point.index].frame.reshape(3, 3).T @ wrench[:3]
+            found.append(Impact(point.body, point.position, force if np.linalg.norm(force) >= 1e-6 else point.normal))
         return found
 
     def side_first_contact(self, side: str) -> tuple[str, FirstContact] | None:

@@ -21,6 +21,8 @@ class ContactPoint:
     position: np.ndarray  # m, world
     normal: np.ndarray  # unit, world, from the environment into the robot
     generators: np.ndarray  # (3, 4) unit friction-cone edges: force = generators @ lambda
+    index: int = -1  # the contact's index in MjData.contact (-1: not from the simulator)
+    sign: float = 1.0  # +1 when the robot is MuJoCo's geom2 (the contact frame's normal points into it), else -1
 
 
 @dataclass
@@ -64,7 +66,7 @@ def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: f
         robot_body = body2 if body1 == 0 else body1
         normal = sign * frame[0]
         points.append(ContactPoint(model.body(robot_body).name, contact.pos.copy(), normal,
-                                   friction_generators(normal, frame[1], frame[2], friction)))
+                                   friction_generators(normal, frame[1], frame[2], friction), i, sign))
     return points
 
 
