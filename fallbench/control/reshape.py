@@ -101,8 +101,8 @@ class ReshapeController:
         self.direction = FallDirection(ComTask.state(self.P.model, self.P.data, pq, pv)[0])
         self.q_ref, self.qd_ref = q.copy(), qd.copy()
 
-    def _landing_tasks(self, t: float, data: mujoco.MjData, direction: np.ndarray, facing: str,
-                       torso_rotation: np.ndarray, support: np.ndarray) -> list[SetPoint]:
+    def _landing_tasks(self, t: float, direction: np.ndarray, facing: str, torso_rotation: np.ndarray,
+                       support: np.ndarray) -> list[SetPoint]:
         model, pdata = self.P.model, self.P.data
         lateral = np.cross(UP, direction)
         pairs, tasks = [], []
@@ -140,7 +140,7 @@ class ReshapeController:
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)
-        tasks += self._landing_tasks(t, data, direction, facing, torso_rotation, support)
+        tasks += self._landing_tasks(t, direction, facing, torso_rotation, support)
         q_joints = q[7:][self.P.actuated_v - 6]
         tasks.append(SetPoint(cfg.w_posture, self.posture.jacobian(), self.posture.error(q_joints), self.posture.drift(),
                               cfg.task_kp, cfg.task_kv))
