@@ -107,8 +107,7 @@ def sweep_figures(specs: list[RunSpec]) -> dict[str, float]:
             parallel = Parallel(n_jobs=jobs, backend="loky" if jobs > 1 else "sequential", return_as="generator_unordered")
             if jobs > 1:
                 started = time.perf_counter()
-                warm = [replace(specs[0], point=replace(specs[0].point, scenario=specs[0].point.scenario.model_copy(
-                    update={"seed": 10_000 + i}))) for i in range(jobs)]
+                warm = [replace(specs[0], point=_with_seed(specs[0].point, 10_000 + i)) for i in range(jobs)]
                 list(parallel(delayed(_simulate_measured)(s) for s in warm))
                 figures["worker_warmup_s"] = time.perf_counter() - started
             started = time.perf_counter()
@@ -127,8 +126,12 @@ def sweep_figures(specs: list[RunSpec]) -> dict[str, float]:
 
 def sweep_specs(point: ScenarioPoint, runs: int, pre_impact: str) -> list[RunSpec]:
     """`runs` distinct runs of the point (seeds 0..), cycling through the four policies."""
-    return [RunSpec(replace(point, scenario=point.scenario.model_copy(update={"seed": i // len(POLICIES)})),
-                    POLICIES[i % len(POLICIES)], pre_impact) for i in range(runs)]
+    return [RunSpec(_with_seed(point, i // len(POLICIES)), POLICIES[i % len(POLICIES)], pre_impact) for i in range(runs)]
+
+
+def _with_seed(point: ScenarioPoint, seed: int) -> ScenarioPoint:
+    """The same point as a distinct run (its own run id) with the same work."""
+    return replace(point, scenario=point.scenario.model_copy(update={"seed": seed}))
 
 
 def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, sweep_runs: int = 48,

@@ -157,8 +157,9 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
                 if strategy is not None:
                     strategy.start(qpos, qvel, qpos[world.qpos_adr], qvel[world.qvel_adr])
         switch_changed = False
+        found = recent_found() if fall.time is not None else seen
         if fall.time is not None:
-            fresh = recent_found() & ~seen
+            fresh = found & ~seen
             if fresh.any():  # bodies touching for the first time since the fall was detected
                 seen |= fresh
                 new = _names(world, fresh)
@@ -176,7 +177,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
         if switched.any():
             if switch_changed or not policy.static or policy_command is None:
                 q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
-                touching_now = _names(world, recent_found()) if policy.needs_contacts else set()
+                touching_now = _names(world, found) if policy.needs_contacts else set()
                 observation = Observation(t, qpos.copy(), qvel.copy(), q, qd, touching_now, data)
                 assert q_ref_impact is not None
                 policy_command = policy.after_impact(observation, q_ref_impact)
