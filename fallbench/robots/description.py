@@ -51,6 +51,7 @@ class RobotDescription:
     disabled_collisions: tuple[tuple[str, str], ...] = ()
     arms: dict[str, Arm] = field(default_factory=dict)  # "left"/"right" -> names
     leg_pitch_joints: dict[str, tuple[str, ...]] = field(default_factory=dict)  # "hip"/"knee"/"ankle" -> both legs
+    leg_root_joints: dict[str, str] = field(default_factory=dict)  # "left"/"right" -> first joint of that leg
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine."""
