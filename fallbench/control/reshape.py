@@ -16,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -42,6 +42,7 @@ from fallbench.servo import ServoCommand
 from fallbench.world import World
 
 UP = np.array([0.0, 0.0, 1.0])
+PIVOTS = ("contacts", "knees", "knees_and_buttocks")
 UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
 
 
@@ -73,11 +74,16 @@ class ReshapeConfig:
     w_lambda: float = 1e-6
     w_qdd: float = 1e-4
     w_contact: float = 100.0  # contact points neither sinking in nor lifting off (a cost, not a constraint)
+    pivot: Literal["contacts", "knees", "knees_and_buttocks"] = "knees"  # the landing search's stick pivot, see _pivot
     eps_abs: float = 1e-6
     # Iteration caps bound the solver's rare very long solves (seen: 49 s with ProxSuite's
     # defaults); a capped solve counts as a failure and the references coast for that step.
     max_iter: int = 200
     max_iter_in: int = 100
+
+    def __post_init__(self) -> None:
+        if self.pivot not in PIVOTS:
+            raise ValueError(f"reshape: pivot must be one of {', '.join(PIVOTS)}, not {self.pivot!r}")
 
 
 @dataclass
@@ -165,7 +171,7 @@ class ReshapeController:
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)
-        tasks += self._landing_tasks(t, direction, facing, torso_rotation, support)
+        tasks += self._landing_tasks(t, direction, facing, torso_rotation, self._pivot(data, support, direction))
         if facing == "back":
             tasks += self._hands_below_butt(data)
         elif len(self.knees) == 2:
@@ -189,14 +195,33 @@ class ReshapeController:
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
 
-    def _butt_height(self, data: mujoco.MjData) -> float:
-        """Height (m) of the lowest corner of the root body's collision geometry (the buttocks)."""
-        return min(float((corners @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g])[:, 2].min())
-                   for g, corners in zip(self.butt_geoms, self.butt_corners))
+    def _pivot(self, data: mujoco.MjData, support: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """The stick's ground point (002 Sec. IV-B). `contacts`: the mean of the contact points, as
+        in 002. `knees`: the point farthest along the fall direction among that one and the ground
+        projections of the knees: a robot that crouches while it falls forward lands on its knees
+        and turns about them, not about its feet, so the shoulders' circle is smaller and nearer.
+        `knees_and_buttocks` adds the buttocks' lowest corner, for back falls."""
+        if self.cfg.pivot == "contacts":
+            return support
+        candidates = [support] + [self._on_ground(knee.kinematics(self.P.model, self.P.data)[0], support)
+                                  for knee in self.knees]
+        if self.cfg.pivot == "knees_and_buttocks":
+            candidates.append(self._on_ground(self._butt_point(data), support))
+        return max(candidates, key=lambda point: float(point @ direction))
+
+    @staticmethod
+    def _on_ground(point: np.ndarray, support: np.ndarray) -> np.ndarray:
+        return np.array([point[0], point[1], support[2]])
+
+    def _butt_point(self, data: mujoco.MjData) -> np.ndarray:
+        """Lowest corner (m, world) of the root body's collision geometry (the buttocks)."""
+        corners = np.concatenate([c @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+                                  for g, c in zip(self.butt_geoms, self.butt_corners)])
+        return corners[np.argmin(corners[:, 2])]
 
     def _hands_below_butt(self, data: mujoco.MjData) -> list[SetPoint]:
         """000 Sec. IV-C: the wrists below the buttocks by `hands_below_butt`, along the vertical."""
-        target = self._butt_height(data) - self.cfg.hands_below_butt
+        target = float(self._butt_point(data)[2]) - self.cfg.hands_below_butt
         tasks = []
         for wrist in self.wrists.values():
             position, J, drift = wrist.kinematics(self.P.model, self.P.data)
