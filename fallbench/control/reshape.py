@@ -39,11 +39,11 @@ from fallbench.control.tasks.surface_position import SurfacePositionTask
 from fallbench.control.tasks.vector_orientation import VectorOrientationTask
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
+from fallbench.support import body_box_corners, world_corners
 from fallbench.world import World
 
 UP = np.array([0.0, 0.0, 1.0])
 PIVOTS = ("contacts", "knees", "knees_and_buttocks")
-UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
 
 
 @dataclass(frozen=True)
@@ -112,10 +112,7 @@ class ReshapeController:
         self.wrists = {side: BodyPoint(arm.wrist_frame, np.zeros(3)) for side, arm in robot.arms.items()}
         self.knees = [BodyPoint(world.model.body(world.model.jnt_bodyid[world.model.joint(j).id]).name, np.zeros(3))
                       for j in robot.knee_joints]
-        root = world.root_body
-        self.butt_geoms = np.flatnonzero((world.model.geom_bodyid == root) & (world.model.geom_contype > 0))
-        aabb = world.model.geom_aabb[self.butt_geoms]
-        self.butt_corners = aabb[:, None, :3] + UNIT_CORNERS[None] * aabb[:, None, 3:]  # geom frames
+        self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
         leg_joints = [j for root in robot.leg_root_joints.values() for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
         self.qp = DenseQP(self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
@@ -215,8 +212,7 @@ class ReshapeController:
 
     def _butt_point(self, data: mujoco.MjData) -> np.ndarray:
         """Lowest corner (m, world) of the root body's collision geometry (the buttocks)."""
-        corners = np.concatenate([c @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
-                                  for g, c in zip(self.butt_geoms, self.butt_corners)])
+        corners = world_corners(data, self.butt_geoms, self.butt_corners)
         return corners[np.argmin(corners[:, 2])]
 
     def _hands_below_butt(self, data: mujoco.MjData) -> list[SetPoint]:
