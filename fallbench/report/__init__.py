@@ -74,7 +74,7 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
         summary += [f"### {title}", "", table.to_markdown(index=False) if len(table) else "(no runs)", ""]
     if len(sensitivity):
         summary += ["## Sensitivity to the baseline stiffness (medians per gain scale)", "",
-                    sensitivity.round(3).to_markdown(), ""]
+                    sensitivity.round(3).to_markdown(index=False), ""]
     summary += ["## Medians per scenario, strategy and policy", "", medians.round(3).to_markdown(), ""]
     if len(failed):
         summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
@@ -90,7 +90,7 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
         body += [f"<h3>{html.escape(title)}</h3>", table.to_html(index=False) if len(table) else "<p>no runs</p>"]
     body += [_img(p) for p in pre_paths if p.suffix == ".png"]
     if len(sensitivity):
-        body += ["<h2>Sensitivity to the baseline stiffness</h2>", sensitivity.round(3).to_html()]
+        body += ["<h2>Sensitivity to the baseline stiffness</h2>", sensitivity.round(3).to_html(index=False)]
         body += [_img(p) for p in sensitivity_paths if p.suffix == ".png"]
     body += ["<h2>Medians per scenario, strategy and policy</h2>", medians.round(3).to_html(),
             "<h2>Sweep comparisons</h2>"] + [_img(p) for p in sweep_paths if p.suffix == ".png"]

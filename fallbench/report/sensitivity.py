@@ -38,9 +38,8 @@ def sensitivity_runs(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def sensitivity_table(swept: pd.DataFrame) -> pd.DataFrame:
-    """Median per (line, gain scale): rows = gain scale, columns = (metric, line)."""
-    table = swept.groupby(["gain_scale", "line"])[list(TABLE_METRICS)].median(numeric_only=True)
-    return table.unstack("line")
+    """Medians per (gain scale, line), one column per metric; `fell` is the fraction of runs that fell."""
+    return swept.astype({"fell": float}).groupby(["gain_scale", "line"])[list(TABLE_METRICS)].median().reset_index()
 
 
 def sensitivity_figure(swept: pd.DataFrame, out: Path) -> list[Path]:
