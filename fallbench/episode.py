@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import select_motors
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for
 from fallbench.events import FallDetector, ImpactDetector
 from fallbench.impacts import ImpactEvent, ImpactLog
 from fallbench.policies import GainPolicy, Observation, make_policy
