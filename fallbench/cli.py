@@ -59,7 +59,7 @@ def _strategies(text: str) -> list[str]:
     return _names(text, STRATEGIES, "--pre-impact", "strategy")
 
 
-PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape); a scenario's own `pre_impact` list wins."
+PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape, direction, or a plugin's); a scenario's own `pre_impact` list wins."
 
 
 def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> ScenarioPoint:
@@ -138,7 +138,7 @@ def run_one_command(
     file: Path = typer.Argument(..., help="Scenario YAML file."),
     point: list[str] = typer.Option([], help="Sweep point: an index, or key=value (repeatable)."),
     policy: str = typer.Option("stiff", help="Gain policy."),
-    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none or reshape)."),
+    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none, reshape, direction, or a plugin's)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
 ) -> None:
     """Run one case, store it, and print its metrics."""

@@ -5,9 +5,10 @@ strategy -> impact detector -> gain policy -> servo references and gains written
 actuators. Everything the metrics need is recorded at the physics rate from MuJoCo's sensors
 (computed in C inside the step).
 
-Without a pre-impact strategy every motor switches to the gain policy at the first impact. With
-one, a motor switches when a body on its chain to the root touches the environment (002 Sec. V,
-last paragraph); the others go on reshaping until the torso or head lands, when all switch.
+Every motor switches to the gain policy at the first impact, unless the pre-impact strategy
+switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
+the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
+lands, when all switch. Contacts the strategy planned (a footstep) are not impacts.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from fallbench.dynamics.model import pinocchio_for
 from fallbench.events import FallDetector, ImpactDetector
 from fallbench.impacts import ImpactEvent, ImpactLog
 from fallbench.policies import GainPolicy, Observation, make_policy
-from fallbench.preimpact import make_strategy
+from fallbench.preimpact import Strategy, make_strategy
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand, write_servo
 from fallbench.world import World, build_world, initial_state
@@ -64,6 +65,7 @@ class Recording:
     impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
     landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
     policy_stats: dict[str, float] = field(default_factory=dict)
+    strategy: Strategy | None = None  # the pre-impact strategy, for its own metrics
     steps: int = 0
     status: str = "ok"
     error: str = ""
@@ -154,26 +156,28 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
             if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
                 seen = recent_found()
                 impact.start(_names(world, seen))
-                if strategy is not None:
-                    strategy.start(qpos, qvel, qpos[world.qpos_adr], qvel[world.qvel_adr])
+                strategy.start(t, data)
         switch_changed = False
         found = recent_found() if fall.time is not None else seen
         if fall.time is not None:
             fresh = found & ~seen
+            planned = strategy.planned_contacts()
+            if planned:  # a planned footstep is not an impact
+                fresh &= ~np.isin(world.contact_bodies, list(planned))
             if fresh.any():  # bodies touching for the first time since the fall was detected
                 seen |= fresh
                 new = _names(world, fresh)
                 impact.update(t, new)
                 impacts.update(t, new, data, qpos, qvel)
                 if impact.time is not None and not switched.all():
-                    now = np.ones(model.nu, dtype=bool) if strategy is None or new & landed_bodies else switched.copy()
+                    now = np.ones(model.nu, dtype=bool) if not strategy.per_chain_switching or new & landed_bodies else switched.copy()
                     now[select_motors(P, new, world.joint_names)] = True
                     if (now & ~switched).any():
                         q = qpos[world.qpos_adr]
                         q_ref_impact = np.where(now & ~switched, q, q_ref_impact if q_ref_impact is not None else q)
                         switched, switch_changed = now, True
-            if strategy is not None and not switched.all():
-                pre_command = strategy.step(t, data, qpos, qvel)
+            if not switched.all():
+                pre_command = strategy.step(t, data) or pre_command
         if switched.any():
             if switch_changed or not policy.static or policy_command is None:
                 q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
@@ -212,18 +216,17 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
 
     held = np.repeat(_held(changes, k + 1, model.nu), per_control, axis=1)[:, :step]
     landing_errors: dict[str, float] = {}
-    if strategy is not None:
-        for side in world.robot.arms:
-            contact = impacts.side_first_contact(side)
-            bip = strategy.bip_before(side, contact[1].t) if contact else None
-            if contact is not None and bip is not None:
-                landing_errors[side] = float(np.linalg.norm(contact[1].point - bip))
+    for side in world.robot.arms:
+        contact = impacts.side_first_contact(side)
+        target = strategy.landing_target(side, contact[1].t) if contact else None
+        if contact is not None and target is not None:
+            landing_errors[side] = float(np.linalg.norm(contact[1].point - target))
     return Recording(
         world=world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=rec_sensor[:step],
         qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
         fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,
         controller_ms=controller_ms[: k + 1], physics_s=physics_s, pre_impact=pre_impact, impact_events=impacts.events,
-        landing_errors=landing_errors, policy_stats=policy.stats() | (strategy.stats() if strategy else {}),
+        landing_errors=landing_errors, policy_stats=policy.stats() | strategy.stats(), strategy=strategy,
         steps=step, status=status, error=error,
     )

@@ -167,6 +167,8 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
                 "preimpact_qp_ms_median": float("nan"), "preimpact_qp_ms_p99": float("nan"), "preimpact_qp_failures": 0,
                 "preimpact_qp_steps": 0, "fall_class_at_detection": "", "fall_class_before_impact": ""})
     row.update(rec.policy_stats)
+    if rec.strategy is not None:
+        row.update(rec.strategy.metrics(rec))
     row["sim_steps"] = int(rec.steps)
     row["sim_time"] = float(rec.steps * dt)
     return row

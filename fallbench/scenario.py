@@ -80,7 +80,7 @@ class Scenario(Strict):
     obstacles: list[Obstacle] = []
     detection: Detection = Detection()
     policy_params: dict[str, dict[str, Any]] = {}  # policy (or `reshape`) name -> parameter overrides
-    pre_impact: tuple[Literal["none", "reshape"], ...] | None = None  # pins the strategies swept for this scenario
+    pre_impact: tuple[str, ...] | None = None  # pins the strategies swept for this scenario (names checked in world.check_scenario)
     seed: Annotated[int, Field(ge=0)] = 0
 
     @model_validator(mode="after")

@@ -51,6 +51,7 @@ class RobotDescription:
     disabled_collisions: tuple[tuple[str, str], ...] = ()
     arms: dict[str, Arm] = field(default_factory=dict)  # "left"/"right" -> names
     leg_pitch_joints: dict[str, tuple[str, ...]] = field(default_factory=dict)  # "hip"/"knee"/"ankle" -> both legs
+    feet: dict[str, str] = field(default_factory=dict)  # "left"/"right" -> the foot body that carries the sole
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine."""

@@ -77,4 +77,5 @@ def talos() -> RobotDescription:
                         f"arm_{side}_6_joint", f"gripper_{side}_base_link") for side in ("left", "right")},
         leg_pitch_joints={"hip": ("leg_left_3_joint", "leg_right_3_joint"), "knee": ("leg_left_4_joint", "leg_right_4_joint"),
                           "ankle": ("leg_left_5_joint", "leg_right_5_joint")},
+        feet={side: f"leg_{side}_6_link" for side in ("left", "right")},
     )
