@@ -22,12 +22,14 @@ import numpy as np
 
 from fallbench.control.adaptive_gains_qp import select_motors
 from fallbench.dynamics.model import pinocchio_for
-from fallbench.events import FallDetector, ImpactDetector
+from fallbench.events import (CapturePointDetector, FallDetector, FreefallDetector, ImpactDetector,
+                              TiltDetector)
 from fallbench.impacts import ImpactEvent, ImpactLog
 from fallbench.policies import GainPolicy, Observation, make_policy
 from fallbench.preimpact import Strategy, make_strategy
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand, write_servo
+from fallbench.support import FootSupport
 from fallbench.world import World, build_world, initial_state
 
 LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
@@ -57,6 +59,7 @@ class Recording:
     qd_ref: np.ndarray  # rad/s, (steps, nu)
     fall_time: float | None
     fall_reason: str
+    fall_times: dict[str, float]  # s, when each detector fired (selected or not), up to the first impact
     impact_time: float | None  # s, control step at which the policy switched
     impact_bodies: list[str]
     controller_ms: np.ndarray  # ms per control step spent in the strategy and the policy
@@ -107,6 +110,12 @@ def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) ->
         (policy.kp, policy.kd, policy.q_ref, policy.qd_ref), (other.kp, other.kd, other.q_ref, other.qd_ref))))
 
 
+def make_fall_detector(scenario: Scenario) -> FallDetector:
+    detection = scenario.detection
+    return FallDetector(detection.method, CapturePointDetector(detection.capture_point_margin),
+                        TiltDetector(detection.tilt), FreefallDetector(detection.freefall, detection.freefall_hold))
+
+
 def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") -> Recording:
     world = build_world(scenario)
     model = world.model
@@ -129,7 +138,8 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     q_start = data.qpos[world.qpos_adr].copy()
     command = pre_command = ServoCommand(world.default_kp, world.default_kd, q_start, np.zeros(model.nu))
     switched = np.zeros(model.nu, dtype=bool)  # motors under the gain policy
-    fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall, scenario.detection.freefall_hold)
+    fall = make_fall_detector(scenario)
+    support = FootSupport(world)
     impact = ImpactDetector()
     q_ref_impact: np.ndarray | None = None
     push = _push_force(world, scenario)
@@ -151,10 +161,13 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     for k in range(n_control):
         t = k * scenario.control_dt
         started = time.perf_counter()
-        if fall.time is None:
+        if impact.time is None and not fall.all_fired:  # every detector watched until the first impact
+            detected = fall.time is not None
+            found_now = recent_found()
             mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
-            if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
-                seen = recent_found()
+            if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc"), world.sensor(sensor_row, "com_pos"),
+                           world.sensor(sensor_row, "com_vel"), support.points(data, found_now)) and not detected:
+                seen = found_now
                 impact.start(_names(world, seen))
                 strategy.start(t, data)
         switch_changed = False
@@ -225,7 +238,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
         world=world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=rec_sensor[:step],
         qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
-        fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,
+        fall_time=fall.time, fall_reason=fall.reason, fall_times=dict(fall.times), impact_time=impact.time, impact_bodies=impact.bodies,
         controller_ms=controller_ms[: k + 1], physics_s=physics_s, pre_impact=pre_impact, impact_events=impacts.events,
         landing_errors=landing_errors, policy_stats=policy.stats() | strategy.stats(), strategy=strategy,
         steps=step, status=status, error=error,

@@ -15,6 +15,7 @@ import pandas as pd
 
 from fallbench.control.fall_direction import fall_class, horizontal_unit
 from fallbench.episode import Recording
+from fallbench.events import METHODS
 from fallbench.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
@@ -99,6 +100,19 @@ def fall_class_at_impact(rec: Recording) -> tuple[float, str]:
     return math.degrees(math.atan2(lean[1], lean[0])), fall_class(lean, rotations[0])
 
 
+def fall_lead_times(rec: Recording, impact: float | None) -> dict[str, float]:
+    """When each fall detector fired (s, NaN if it did not before the first impact), and the lead
+    time (s) from the declared detection, and from each detector, to the first impact."""
+    row = {}
+    lead = (lambda fired: float("nan") if impact is None or fired is None else impact - fired)
+    row["fall_lead_time"] = lead(rec.fall_time)
+    for method in METHODS:
+        fired = rec.fall_times.get(method)
+        row[f"fall_time_{method}"] = float("nan") if fired is None else float(fired)
+        row[f"fall_lead_time_{method}"] = lead(fired)
+    return row
+
+
 def impact_metrics(rec: Recording) -> dict[str, object]:
     """Order of the body groups' first impacts, and the arms and singular joints at the first."""
     events = rec.impact_events
@@ -155,6 +169,7 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["policy_switch_time"] = float("nan") if rec.impact_time is None else float(rec.impact_time)
     row["fall_time"] = float("nan") if rec.fall_time is None else float(rec.fall_time)
     row["fall_reason"] = rec.fall_reason
+    row.update(fall_lead_times(rec, impact))
     row["first_contact_bodies"] = ",".join(rec.impact_bodies)
     row["final_base_height"] = float(base_height[-1])
     row["fell"] = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)

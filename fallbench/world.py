@@ -170,6 +170,12 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
         # XBODY: the body's own frame (BODY would be its inertial frame, rotated on TALOS's waist)
         sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_XBODY, robot.root_body
 
+    # whole-robot CoM and its velocity, for the capture point (computed in C inside the step)
+    for name, kind in (("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM), ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL)):
+        sensor = spec.add_sensor()
+        sensor.name, sensor.type = name, kind
+        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_BODY, robot.root_body
+
     _add_contact_sensor(spec, "contact:total", robot.root_body, subtree=True)
     for group, bodies in robot.body_groups.items():
         for body in bodies:
