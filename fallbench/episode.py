@@ -151,7 +151,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
         started = time.perf_counter()
         if fall.time is None:
             mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
-            if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
+            if fall.update(t, world.robot.torso_frame(torso_rotation.reshape(3, 3)), world.sensor(sensor_row, "imu_acc")):
                 seen = recent_found()
                 impact.start(_names(world, seen))
                 if strategy is not None:
