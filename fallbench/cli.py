@@ -30,9 +30,9 @@ def fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
-def _load(files: list[Path]) -> list[ScenarioPoint]:
+def _load(files: list[Path], robot: str | None = None) -> list[ScenarioPoint]:
     try:
-        return load_scenarios(list(files))
+        return load_scenarios(list(files), robot)
     except ScenarioError as exc:
         fail(str(exc))
     raise AssertionError  # unreachable: fail() exits
@@ -51,6 +51,12 @@ def _policies(text: str) -> list[str]:
     from fallbench.policies import POLICIES
 
     return _names(text, POLICIES, "--policies", "policy")
+
+
+def _robot(name: str | None) -> str | None:
+    from fallbench.robots import ROBOTS
+
+    return None if name is None else _names(name, ROBOTS, "--robot", "robot")[0]
 
 
 def _strategies(text: str) -> list[str]:
@@ -101,6 +107,7 @@ def run_sweep_command(
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
     strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
     progress: bool = typer.Option(True, help="Show a progress bar."),
+    robot: Optional[str] = typer.Option(None, help="Run every file on this robot (talos, g1), replacing the files' `robot` and any sweep over robots."),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -115,10 +122,10 @@ def run_sweep_command(
         fail("--scheduler needs --backend dask")
     if backend == "dask" and importlib.util.find_spec("distributed") is None:
         fail("--backend dask needs Dask's distributed scheduler: pip install 'fallbench[dask]'")
-    points = _load(files or SHIPPED)
+    points = _load(files or SHIPPED, _robot(robot))
     specs = expand(points, _policies(policies), _strategies(pre_impact))
     table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty(), backend=backend, scheduler=scheduler)
-    keys = ["scenario", "pre_impact", "policy"]
+    keys = ["robot", "scenario", "pre_impact", "policy"]
     summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())
     summary.insert(1, "failed", table[table.status != "ok"].groupby(keys).size().reindex(summary.index, fill_value=0))

@@ -165,8 +165,9 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
             detected = fall.time is not None
             found_now = recent_found()
             mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
-            if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc"), world.sensor(sensor_row, "com_pos"),
-                           world.sensor(sensor_row, "com_vel"), support.points(data, found_now)) and not detected:
+            if fall.update(t, world.robot.torso_frame(torso_rotation.reshape(3, 3)), world.sensor(sensor_row, "imu_acc"),
+                           world.sensor(sensor_row, "com_pos"), world.sensor(sensor_row, "com_vel"),
+                           support.points(data, found_now)) and not detected:
                 seen = found_now
                 impact.start(_names(world, seen))
                 strategy.start(t, data)

@@ -189,10 +189,6 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     return row
 
 
-TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint",
-                     "torso_1_joint", "arm_left_1_joint", "arm_left_4_joint", "arm_left_6_joint", "arm_right_4_joint")
-
-
 def timeseries(rec: Recording) -> pd.DataFrame:
     """The signals the paper figures need, at the physics rate, float32."""
     world = rec.world
@@ -200,14 +196,15 @@ def timeseries(rec: Recording) -> pd.DataFrame:
     columns: dict[str, np.ndarray] = {"t": rec.time, "imu_acc_x": acc[:, 0], "imu_acc_y": acc[:, 1], "imu_acc_z": acc[:, 2]}
     for axis, i in zip("xyz", range(3)):
         columns[f"base_{axis}"] = rec.qpos[:, i]
-    for joint in TIMESERIES_JOINTS:
+    for joint in world.robot.timeseries_joints:
         j = world.joint_names.index(joint)
         columns[f"q:{joint}"] = rec.qpos[:, world.qpos_adr[j]]
         columns[f"tau:{joint}"] = rec.actuator_force[:, j]
     for group, force in group_forces(rec).items():
         columns[f"force:{group}"] = force
+    legs = set(world.robot.leg_joints)
     for j, joint in enumerate(world.joint_names):
-        if joint.startswith("leg_"):
+        if joint in legs:
             columns[f"K:{joint}"] = rec.kp[:, j]
             columns[f"B:{joint}"] = rec.kd[:, j]
     return pd.DataFrame({k: np.asarray(v, dtype=np.float32) for k, v in columns.items()})

@@ -80,7 +80,7 @@ def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[st
 def _identity(spec: RunSpec) -> dict[str, Any]:
     scenario = spec.point.scenario
     row: dict[str, Any] = {
-        "run_id": spec.run_id, "schema_version": store.SCHEMA_VERSION, "scenario": scenario.name,
+        "run_id": spec.run_id, "schema_version": store.SCHEMA_VERSION, "robot": scenario.robot, "scenario": scenario.name,
         "point": spec.point.label, "source": spec.point.source, "policy": spec.policy,
         "pre_impact": spec.pre_impact, "seed": scenario.seed,
     }

@@ -131,12 +131,12 @@ class ReshapeController:
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
         terms = model_terms(self.P, q, v, points)
-        torso_rotation = self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation
+        torso_rotation = world.robot.torso_frame(self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation)
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
         facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"
         lateral_target = np.cross(UP, direction) * (1.0 if facing == "front" else -1.0)
-        orientation = VectorOrientationTask(world.robot.torso_body, np.array([0.0, 1.0, 0.0]), lateral_target)
+        orientation = VectorOrientationTask(world.robot.torso_body, world.robot.torso_axis("left"), lateral_target)
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)
