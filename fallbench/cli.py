@@ -297,24 +297,33 @@ def check_command(
     """Run the suite (or reuse its stored runs) and compare every metric with the baseline.
 
     Exit 0 with a one-line summary when nothing regressed; exit 1 with a table of regressions
-    (a NaN, a missing run, a new failure or a metric outside tolerance) otherwise.
+    (a NaN, a missing run, a new failure or a metric outside tolerance) otherwise; exit 2 before
+    running anything when the baseline is missing or corrupt (a NaN, an infinite or non-numeric
+    value, a missing column).
     """
-    from fallbench.regress import baseline_frame, compare, load_tolerances, read_baseline, write_baseline
+    from fallbench.regress import BaselineError, baseline_frame, compare, load_tolerances, read_baseline, write_baseline
     from fallbench.runner import expand, run_sweep
 
     try:
         limits = load_tolerances(tolerances)
     except (OSError, ValueError) as exc:
         fail(f"{tolerances}: {exc}")
-    table = run_sweep(expand(_load(suite), _policies(policies), _strategies(pre_impact)), results, jobs=jobs, progress=False)
+    points, chosen, strategies = _load(suite), _policies(policies), _strategies(pre_impact)
+    expected = None
+    if not update:  # a missing or corrupt baseline is bad input: say so before running anything
+        if not baseline.exists():
+            fail(f"{baseline}: no baseline (create it with `fallbench check --update`)")
+        try:
+            expected = read_baseline(baseline, limits)
+        except BaselineError as exc:
+            fail(str(exc))
+    table = run_sweep(expand(points, chosen, strategies), results, jobs=jobs, progress=False)
     now = baseline_frame(table, limits)
     if update:
         write_baseline(now, baseline)
         typer.echo(f"baseline updated: {baseline} ({len(now)} cases, {len(limits)} metrics)")
         return
-    if not baseline.exists():
-        fail(f"{baseline}: no baseline (create it with `fallbench check --update`)")
-    regressions = compare(read_baseline(baseline), now, limits)
+    regressions = compare(expected, now, limits)
     if regressions:
         typer.echo(f"{'case':<40} {'metric':<24} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
         for r in regressions:
