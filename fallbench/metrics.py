@@ -22,6 +22,7 @@ LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the 
 IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated
 FELL_HEIGHT_FRACTION = 0.6  # base below this fraction of its standing height = fallen
 SMOOTHING_WINDOW = 0.005  # s, moving average for the *_5ms IMU peaks
+LANDING_WINDOW = 0.15  # s after the first impact: the landing that 002 Fig. 6 shows, before any later fall
 SAFE_FIRST_GROUPS = {"hands", "feet"}  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
 
 
@@ -44,6 +45,31 @@ def imu_metrics(acc: np.ndarray, dt: float) -> dict[str, float]:
         "imu_peak_norm": _peak(norm),
         "imu_peak_z_5ms": _peak(moving_average(acc[:, 2], window)),
         "imu_peak_norm_5ms": _peak(moving_average(norm, window)),
+    }
+
+
+def landing_mask(time: np.ndarray, impact: float | None, length: float = LANDING_WINDOW) -> np.ndarray:
+    """Samples in [impact, impact + length] (s); none without an impact."""
+    if impact is None or not math.isfinite(impact):
+        return np.zeros(len(time), dtype=bool)
+    return (time >= impact - 1e-9) & (time <= impact + length + 1e-9)
+
+
+def landing_metrics(time: np.ndarray, acc: np.ndarray, demand: np.ndarray, limit: np.ndarray, switch_time: np.ndarray,
+                    failure_times: list[float], impact: float | None, takeover: float | None,
+                    length: float = LANDING_WINDOW) -> dict[str, float]:
+    """The landing window's IMU peaks (m/s^2), PD demand / limit of the joints already under the gain
+    policy (switch_time <= t), QP failures, and the delay from first contact to takeover (s)."""
+    window = landing_mask(time, impact, length)
+    under_policy = (switch_time[None, :] <= time[:, None] + 1e-9) & window[:, None]
+    ratio = np.abs(demand) / limit
+    failures = landing_mask(np.asarray(failure_times, dtype=float), impact, length)
+    return {
+        "imu_peak_z_landing": _peak(acc[window, 2]),
+        "imu_peak_norm_landing": _peak(np.linalg.norm(acc[window], axis=1)),
+        "torque_demand_ratio_landing": float(ratio[under_policy].max()) if under_policy.any() else float("nan"),
+        "qp_failures_landing": int(np.count_nonzero(failures)),
+        "takeover_delay": float("nan") if impact is None or takeover is None else takeover - impact,
     }
 
 
@@ -72,7 +98,7 @@ def group_forces(rec: Recording) -> dict[str, np.ndarray]:
 
 
 def first_contact_time(rec: Recording) -> float | None:
-    """Physics-rate time of the impact the controller detected (it sees it up to one control step later)."""
+    """Physics-rate time of the impact the controller detected (its contact sensor reads it after that physics step)."""
     if rec.impact_time is None:
         return None
     world = rec.world
@@ -155,6 +181,8 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["knee_limit_margin"] = float(margins[:, knees].min())
     row["joint_limit_hits"] = int(np.count_nonzero((margins < -LIMIT_HIT_TOLERANCE).any(axis=0)))
     row.update(torque_metrics(rec.actuator_force, demand, world.torque_limit, dt))
+    row.update(landing_metrics(rec.time, world.sensor(rec.sensordata, "imu_acc"), demand, world.torque_limit,
+                               rec.switch_time, rec.policy_failure_times, impact, rec.impact_time))
     row["contact_force_peak"] = float(forces["total"].max())
     for group in world.contact_groups:
         row[f"contact_force_peak_{group}"] = float(forces[group].max())
