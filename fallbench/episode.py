@@ -5,9 +5,10 @@ strategy -> impact detector -> gain policy -> servo references and gains written
 actuators. Everything the metrics need is recorded at the physics rate from MuJoCo's sensors
 (computed in C inside the step).
 
-Without a pre-impact strategy every motor switches to the gain policy at the first impact. With
-one, a motor switches when a body on its chain to the root touches the environment (002 Sec. V,
-last paragraph); the others go on reshaping until the torso or head lands, when all switch.
+Every motor switches to the gain policy at the first impact, unless the pre-impact strategy
+switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
+the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
+lands, when all switch. Contacts the strategy planned (a footstep) are not impacts.
 
 Impacts are watched inside the physics substeps: after fall detection, and until every motor has
 switched, a body touching for the first time (its contact sensor's "found" column) ends the substeps
@@ -26,14 +27,16 @@ import mujoco
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import select_motors
-from fallbench.control.model import pinocchio_for
-from fallbench.events import FallDetector, ImpactDetector
+from fallbench.dynamics.model import pinocchio_for
+from fallbench.events import (CapturePointDetector, FallDetector, FreefallDetector, ImpactDetector,
+                              TiltDetector)
 from fallbench.impacts import ImpactEvent, ImpactLog
 from fallbench.policies import GainPolicy, Observation, make_policy
 from fallbench.policies.stiff import gain_scale
-from fallbench.preimpact import make_strategy
+from fallbench.preimpact import Strategy, make_strategy
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand, write_servo
+from fallbench.support import FootSupport
 from fallbench.world import World, build_world, initial_state
 
 LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
@@ -63,6 +66,7 @@ class Recording:
     qd_ref: np.ndarray  # rad/s, (steps, nu)
     fall_time: float | None
     fall_reason: str
+    fall_times: dict[str, float]  # s, when each detector fired (selected or not), up to the first impact
     impact_time: float | None  # s, control step at which the policy switched (the takeover)
     impact_bodies: list[str]
     controller_ms: np.ndarray  # ms per control step spent in the strategy and the policy
@@ -72,6 +76,7 @@ class Recording:
     impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
     landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
     policy_stats: dict[str, float] = field(default_factory=dict)
+    strategy: Strategy | None = None  # the pre-impact strategy, for its own metrics
     policy_failure_times: list[float] = field(default_factory=list)  # s, control steps whose policy QP failed
     steps: int = 0
     status: str = "ok"
@@ -114,6 +119,12 @@ def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) ->
         (policy.kp, policy.kd, policy.q_ref, policy.qd_ref), (other.kp, other.kd, other.q_ref, other.qd_ref))))
 
 
+def make_fall_detector(scenario: Scenario) -> FallDetector:
+    detection = scenario.detection
+    return FallDetector(detection.method, CapturePointDetector(detection.capture_point_margin),
+                        TiltDetector(detection.tilt), FreefallDetector(detection.freefall, detection.freefall_hold))
+
+
 def _with_baseline_gains(world: World, scenario: Scenario) -> World:
     """The world with its default gains times `policy_params.stiff.gain_scale`: the baseline
     stiffness that every policy uses before impact (and `stiff` after)."""
@@ -150,7 +161,8 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     command = pre_command = ServoCommand(world.default_kp, world.default_kd, q_start, np.zeros(model.nu))
     switched = np.zeros(model.nu, dtype=bool)  # motors under the gain policy
     switch_time = np.full(model.nu, np.nan)
-    fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall, scenario.detection.freefall_hold)
+    fall = make_fall_detector(scenario)
+    support = FootSupport(world)
     impact = ImpactDetector()
     q_ref_impact: np.ndarray | None = None
     push = _push_force(world, scenario)
@@ -164,6 +176,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     qpos, qvel, sensordata, actuator_force = data.qpos, data.qvel, data.sensordata, data.actuator_force
     qacc, warning_counts = data.qacc, data.warning.number
     seen = np.zeros(len(world.contact_bodies), dtype=bool)  # bodies in contact at detection or since
+    unplanned: np.ndarray | bool = True  # bodies whose contact would be an impact (not a planned footstep)
     since = 0  # physics step of the previous control step
 
     def recent_found() -> np.ndarray:
@@ -173,32 +186,37 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     while step < n_steps:
         t = step * scenario.physics_dt
         started = time.perf_counter()
-        if fall.time is None:
+        if impact.time is None and not fall.all_fired:  # every detector watched until the first impact
+            detected = fall.time is not None
+            found_now = recent_found()
             mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
-            if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
-                seen = recent_found()
+            if fall.update(t, world.robot.torso_frame(torso_rotation.reshape(3, 3)), world.sensor(sensor_row, "imu_acc"),
+                           world.sensor(sensor_row, "com_pos"), world.sensor(sensor_row, "com_vel"),
+                           support.points(data, found_now)) and not detected:
+                seen = found_now
                 impact.start(_names(world, seen))
-                if strategy is not None:
-                    strategy.start(qpos, qvel, qpos[world.qpos_adr], qvel[world.qvel_adr])
+                strategy.start(t, data)
         switch_changed = False
         found = recent_found() if fall.time is not None else seen
         if fall.time is not None:
-            fresh = found & ~seen
+            planned = strategy.planned_contacts()
+            unplanned = ~np.isin(world.contact_bodies, list(planned)) if planned else True  # a planned footstep is not an impact
+            fresh = found & ~seen & unplanned
             if fresh.any():  # bodies touching for the first time since the fall was detected
                 seen |= fresh
                 new = _names(world, fresh)
                 impact.update(t, new)
                 impacts.update(t, new, data, qpos, qvel)
                 if impact.time is not None and not switched.all():
-                    now = np.ones(model.nu, dtype=bool) if strategy is None or new & landed_bodies else switched.copy()
+                    now = np.ones(model.nu, dtype=bool) if not strategy.per_chain_switching or new & landed_bodies else switched.copy()
                     now[select_motors(P, new, world.joint_names)] = True
                     if (now & ~switched).any():
                         q = qpos[world.qpos_adr]
                         q_ref_impact = np.where(now & ~switched, q, q_ref_impact if q_ref_impact is not None else q)
                         switch_time[now & ~switched] = t
                         switched, switch_changed = now, True
-            if strategy is not None and not switched.all() and step % per_control == 0:  # its own 5 ms grid
-                pre_command = strategy.step(t, data, qpos, qvel)
+            if not switched.all() and step % per_control == 0:  # the strategy's own 5 ms grid
+                pre_command = strategy.step(t, data) or pre_command
         if switched.any():
             if switch_changed or not policy.static or policy_command is None:
                 q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
@@ -220,7 +238,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
 
         since = step
         # until every motor has switched, a body touching for the first time ends the substeps at once
-        watched = world.contact_found_columns[~seen] if fall.time is not None and not switched.all() else None
+        watched = world.contact_found_columns[~seen & unplanned] if fall.time is not None and not switched.all() else None
         for _ in range(per_control - step % per_control):
             rec_qpos[step] = qpos
             rec_qvel[step] = qvel
@@ -241,18 +259,17 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
 
     held = _held(changes, step, model.nu)
     landing_errors: dict[str, float] = {}
-    if strategy is not None:
-        for side in world.robot.arms:
-            contact = impacts.side_first_contact(side)
-            bip = strategy.bip_before(side, contact[1].t) if contact else None
-            if contact is not None and bip is not None:
-                landing_errors[side] = float(np.linalg.norm(contact[1].point - bip))
+    for side in world.robot.arms:
+        contact = impacts.side_first_contact(side)
+        target = strategy.landing_target(side, contact[1].t) if contact else None
+        if contact is not None and target is not None:
+            landing_errors[side] = float(np.linalg.norm(contact[1].point - target))
     return Recording(
         world=world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=rec_sensor[:step],
         qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
-        fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,
+        fall_time=fall.time, fall_reason=fall.reason, fall_times=dict(fall.times), impact_time=impact.time, impact_bodies=impact.bodies,
         controller_ms=np.array(controller_ms), physics_s=physics_s, pre_impact=pre_impact, impact_events=impacts.events,
-        landing_errors=landing_errors, policy_stats=policy.stats() | (strategy.stats() if strategy else {}),
+        landing_errors=landing_errors, policy_stats=policy.stats() | strategy.stats(), strategy=strategy,
         switch_time=switch_time, policy_failure_times=_failure_times(policy), steps=step, status=status, error=error,
     )

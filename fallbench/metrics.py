@@ -15,6 +15,7 @@ import pandas as pd
 
 from fallbench.control.fall_direction import fall_class, horizontal_unit
 from fallbench.episode import Recording
+from fallbench.events import METHODS
 from fallbench.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
@@ -125,6 +126,19 @@ def fall_class_at_impact(rec: Recording) -> tuple[float, str]:
     return math.degrees(math.atan2(lean[1], lean[0])), fall_class(lean, rotations[0])
 
 
+def fall_lead_times(rec: Recording, impact: float | None) -> dict[str, float]:
+    """When each fall detector fired (s, NaN if it did not before the first impact), and the lead
+    time (s) from the declared detection, and from each detector, to the first impact."""
+    row = {}
+    lead = (lambda fired: float("nan") if impact is None or fired is None else impact - fired)
+    row["fall_lead_time"] = lead(rec.fall_time)
+    for method in METHODS:
+        fired = rec.fall_times.get(method)
+        row[f"fall_time_{method}"] = float("nan") if fired is None else float(fired)
+        row[f"fall_lead_time_{method}"] = lead(fired)
+    return row
+
+
 def impact_metrics(rec: Recording) -> dict[str, object]:
     """Order of the body groups' first impacts, and the arms and singular joints at the first."""
     events = rec.impact_events
@@ -183,6 +197,7 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["policy_switch_time"] = float("nan") if rec.impact_time is None else float(rec.impact_time)
     row["fall_time"] = float("nan") if rec.fall_time is None else float(rec.fall_time)
     row["fall_reason"] = rec.fall_reason
+    row.update(fall_lead_times(rec, impact))
     row["first_contact_bodies"] = ",".join(rec.impact_bodies)
     row["final_base_height"] = float(base_height[-1])
     row["fell"] = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)
@@ -195,13 +210,11 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
                 "preimpact_qp_ms_median": float("nan"), "preimpact_qp_ms_p99": float("nan"), "preimpact_qp_failures": 0,
                 "preimpact_qp_steps": 0, "fall_class_at_detection": "", "fall_class_before_impact": ""})
     row.update(rec.policy_stats)
+    if rec.strategy is not None:
+        row.update(rec.strategy.metrics(rec))
     row["sim_steps"] = int(rec.steps)
     row["sim_time"] = float(rec.steps * dt)
     return row
-
-
-TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint",
-                     "torso_1_joint", "arm_left_1_joint", "arm_left_4_joint", "arm_left_6_joint", "arm_right_4_joint")
 
 
 def timeseries(rec: Recording) -> pd.DataFrame:
@@ -211,14 +224,15 @@ def timeseries(rec: Recording) -> pd.DataFrame:
     columns: dict[str, np.ndarray] = {"t": rec.time, "imu_acc_x": acc[:, 0], "imu_acc_y": acc[:, 1], "imu_acc_z": acc[:, 2]}
     for axis, i in zip("xyz", range(3)):
         columns[f"base_{axis}"] = rec.qpos[:, i]
-    for joint in TIMESERIES_JOINTS:
+    for joint in world.robot.timeseries_joints:
         j = world.joint_names.index(joint)
         columns[f"q:{joint}"] = rec.qpos[:, world.qpos_adr[j]]
         columns[f"tau:{joint}"] = rec.actuator_force[:, j]
     for group, force in group_forces(rec).items():
         columns[f"force:{group}"] = force
+    legs = set(world.robot.leg_joints)
     for j, joint in enumerate(world.joint_names):
-        if joint.startswith("leg_"):
+        if joint in legs:
             columns[f"K:{joint}"] = rec.kp[:, j]
             columns[f"B:{joint}"] = rec.kd[:, j]
     return pd.DataFrame({k: np.asarray(v, dtype=np.float32) for k, v in columns.items()})

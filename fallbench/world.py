@@ -172,6 +172,12 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
         # XBODY: the body's own frame (BODY would be its inertial frame, rotated on TALOS's waist)
         sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_XBODY, robot.root_body
 
+    # whole-robot CoM and its velocity, for the capture point (computed in C inside the step)
+    for name, kind in (("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM), ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL)):
+        sensor = spec.add_sensor()
+        sensor.name, sensor.type = name, kind
+        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_BODY, robot.root_body
+
     _add_contact_sensor(spec, "contact:total", robot.root_body, subtree=True)
     for group, bodies in robot.body_groups.items():
         for body in bodies:
@@ -310,10 +316,13 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
     if scenario.push and scenario.push.body is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scenario.push.body) < 1:
         return "push.body", f"unknown body {scenario.push.body!r} of robot {robot.name!r}"
     from fallbench.policies import POLICIES
+    from fallbench.preimpact import STRATEGIES
 
-    from fallbench.control.reshape import RESHAPE_PARAMS
-
-    parameters = {name: policy.defaults for name, policy in POLICIES.items()} | {"reshape": RESHAPE_PARAMS}
+    for index, name in enumerate(scenario.pre_impact or ()):
+        if name not in STRATEGIES:
+            return f"pre_impact.{index}", f"unknown pre-impact strategy {name!r} (known: {', '.join(STRATEGIES)})"
+    parameters = {name: policy.defaults for name, policy in POLICIES.items()} | {
+        name: strategy.defaults for name, strategy in STRATEGIES.items() if strategy.defaults}
     for policy, params in scenario.policy_params.items():
         if policy not in parameters:
             return f"policy_params.{policy}", f"unknown policy or strategy (known: {', '.join(parameters)})"

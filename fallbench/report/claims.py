@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import pandas as pd
 
+from fallbench.report.grouping import with_robot
 from fallbench.report.sensitivity import GAIN_SCALE, sensitivity_runs
 from fallbench.report.style import ordered
 
@@ -77,17 +78,22 @@ def _sensitivity_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
 
 def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Claims over the single 1 m drop, over every drop run of the sweep (default gains), and per
-    baseline gain scale of a sensitivity sweep."""
+    baseline gain scale of a sensitivity sweep; per robot."""
+    runs = with_robot(runs)
     drops = runs[(runs.status == "ok") & runs.scenario.str.contains("drop") & (runs.pre_impact == "none")]
     if GAIN_SCALE in drops:
         drops = drops[drops[GAIN_SCALE].fillna(1.0) == 1.0]
     rows: list[dict[str, str]] = []
     height = "param:initial.height"
-    if height in drops.columns:
-        one_metre = drops[drops[height] == 1.0]
-        if len(one_metre):
-            rows += _claims_for(one_metre, "1 m drop")
-    if len(drops):
-        rows += _claims_for(drops, f"all drops ({drops[height].nunique() if height in drops else 1} heights)")
-    rows += _sensitivity_claims(runs)
+    for robot, robot_runs in runs.groupby("robot"):
+        robot_drops = drops[drops.robot == robot]
+        scoped: list[dict[str, str]] = []
+        if height in robot_drops.columns:
+            one_metre = robot_drops[robot_drops[height] == 1.0]
+            if len(one_metre):
+                scoped += _claims_for(one_metre, "1 m drop")
+        if len(robot_drops):
+            scoped += _claims_for(robot_drops, f"all drops ({robot_drops[height].nunique() if height in robot_drops else 1} heights)")
+        scoped += _sensitivity_claims(robot_runs)
+        rows += [{"robot": robot, **row} for row in scoped]
     return pd.DataFrame(rows)
