@@ -7,10 +7,11 @@ from typing import Any
 
 from fallbench.plugins import load_plugins
 from fallbench.preimpact.base import Strategy
+from fallbench.preimpact.direction.strategy import DirectionStrategy
 from fallbench.preimpact.none import NoStrategy
 from fallbench.preimpact.reshape import ReshapeStrategy
 
-STRATEGIES: dict[str, type[Strategy]] = {"none": NoStrategy, "reshape": ReshapeStrategy}
+STRATEGIES: dict[str, type[Strategy]] = {"none": NoStrategy, "reshape": ReshapeStrategy, "direction": DirectionStrategy}
 
 
 def make_strategy(name: str, world: Any, scenario: Any) -> Strategy:
