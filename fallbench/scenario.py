@@ -17,10 +17,13 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError
+
+from fallbench.robots import DEFAULT_ROBOT, ROBOTS, get_robot
+from fallbench.robots.description import DEFAULT_POSTURE
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegativeFloat = Annotated[float, Field(ge=0)]
@@ -31,7 +34,7 @@ class Strict(BaseModel):
 
 
 class Initial(Strict):
-    posture: str = "half_sitting"
+    posture: str = DEFAULT_POSTURE  # a posture of the robot; every robot has `default`, its nominal stance
     height: NonNegativeFloat = 0.0  # m between the feet and the floor at t = 0
     joints: dict[str, float] = {}  # rad, overrides of the posture
 
@@ -61,17 +64,28 @@ class Cylinder(Strict):
 Obstacle = Annotated[Union[Box, Cylinder], Field(discriminator="type")]
 
 
+DetectionMethod = Literal["capture_point", "tilt", "freefall"]
+
+
 class Detection(Strict):
+    # Detectors that may declare the fall; the earliest to fire wins (see fallbench/events.py).
+    method: Annotated[tuple[DetectionMethod, ...], Field(min_length=1)] = ("capture_point", "tilt", "freefall")
+    capture_point_margin: float = 0.02  # m the capture point must be outside the feet's support polygon
     tilt: Annotated[float, Field(gt=0, lt=90)] = 15.0  # deg of torso tilt that declares a fall (000)
     freefall: NonNegativeFloat = 3.0  # m/s^2: accelerometer norm below this declares free fall
     freefall_hold: NonNegativeFloat = 0.02  # s the accelerometer must read free fall
+
+    @field_validator("method", mode="before")
+    @classmethod
+    def _one_or_many(cls, value: Any) -> Any:
+        return (value,) if isinstance(value, str) else value
 
 
 class Scenario(Strict):
     """One fully resolved scenario point (no sweep left)."""
 
     name: str
-    robot: str = "talos"
+    robot: str = DEFAULT_ROBOT
     duration: PositiveFloat  # s
     physics_dt: PositiveFloat = 0.001  # s
     control_dt: PositiveFloat = 0.005  # s
@@ -107,6 +121,8 @@ class ScenarioFile(Scenario):
     sweep: dict[str, list[Any]] = {}
     seeds: Annotated[int, Field(ge=1)] = 1
     layout_yaw: float = 0.0  # deg: turns every obstacle about the world z axis through the origin (the robot)
+    sizes_for: str | None = None  # robot the push forces and obstacle geometry are written for (scaled on others)
+    per_robot: dict[str, dict[str, Any]] = {}  # robot -> dotted key -> value, applied after the scaling
 
 
 class ScenarioError(ValueError):
@@ -128,7 +144,7 @@ class ScenarioPoint:
 
     @property
     def label(self) -> str:
-        parts = [f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith("randomize:")]
+        parts = [f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith(("randomize:", SCALE_PREFIX))]
         return self.scenario.name + ("[" + ",".join(parts) + "]" if parts else "") + f"#s{self.scenario.seed}"
 
 
@@ -200,6 +216,34 @@ def _validation_error(path: Path, doc: Any, exc: ValidationError, line_loc: tupl
     return ScenarioError(path, line, key, reason)
 
 
+# ---------------------------------------------------------------- sizes that depend on the robot
+
+SCALE_PREFIX = "scale:"  # swept entries recording the factors applied to a file's sizes
+
+
+def robot_scales(robot: str, sizes_for: str) -> dict[str, float]:
+    """Factors that carry a file's sizes from robot `sizes_for` to `robot`: forces by the mass
+    ratio (the same change of CoM velocity, F t / m), lengths by the ratio of standing heights."""
+    target, reference = get_robot(robot), get_robot(sizes_for)
+    return {"force": target.mass / reference.mass, "length": target.standing_height / reference.standing_height}
+
+
+def _scale_sizes(data: dict[str, Any], scales: dict[str, float]) -> None:
+    """Push force and obstacle positions and dimensions (robot at the origin) of a point, in place."""
+    push = data.get("push")
+    if isinstance(push, dict) and isinstance(push.get("force"), (int, float)):
+        push["force"] = push["force"] * scales["force"]
+    for obstacle in data.get("obstacles") or []:
+        if not isinstance(obstacle, dict):
+            continue
+        for key in ("pos", "size"):
+            if isinstance(obstacle.get(key), list):
+                obstacle[key] = [v * scales["length"] if isinstance(v, (int, float)) else v for v in obstacle[key]]
+        for key in ("radius", "height"):
+            if isinstance(obstacle.get(key), (int, float)):
+                obstacle[key] = obstacle[key] * scales["length"]
+
+
 # ---------------------------------------------------------------- sweep expansion
 
 def _set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
@@ -227,13 +271,14 @@ def _turn_layout(data: dict[str, Any], yaw_deg: float) -> None:
                 obstacle["yaw"] = obstacle.get("yaw", 0.0) + yaw_deg
 
 
-def _points(path: Path, doc: CommentedMap, spec: ScenarioFile) -> list[ScenarioPoint]:
+def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None = None) -> list[ScenarioPoint]:
     base = _plain(doc)
-    for key in ("sweep", "randomize", "seeds"):
+    for key in ("sweep", "randomize", "seeds", "sizes_for", "per_robot"):
         base.pop(key, None)
-    sweep_keys = list(spec.sweep)
+    sweep = {"robot": [robot], **{k: v for k, v in spec.sweep.items() if k != "robot"}} if robot else spec.sweep
+    sweep_keys = list(sweep)
     points = []
-    for values in itertools.product(*(spec.sweep[k] for k in sweep_keys)):
+    for values in itertools.product(*(sweep[k] for k in sweep_keys)):
         for rep in range(spec.seeds):
             data = copy.deepcopy(base)
             seed = spec.seed + rep
@@ -251,12 +296,33 @@ def _points(path: Path, doc: CommentedMap, spec: ScenarioFile) -> list[ScenarioP
             if isinstance(yaw, bool) or not isinstance(yaw, (int, float)):
                 raise ScenarioError(path, _line_of(doc, _origin(spec, "layout_yaw")), "layout_yaw", f"expected degrees (got {yaw!r})")
             _turn_layout(data, yaw)
+            swept.update(_robot_sizes(path, doc, spec, data))
             try:
                 scenario = Scenario.model_validate(data)
             except ValidationError as exc:
                 raise _sweep_error(path, doc, spec, swept, exc) from None
             points.append(ScenarioPoint(scenario, swept, str(path)))
     return points
+
+
+def _robot_sizes(path: Path, doc: CommentedMap, spec: ScenarioFile, data: dict[str, Any]) -> dict[str, float]:
+    """Scale a point's sizes to its robot and apply the file's per-robot values, in place;
+    returns the factors applied, as `scale:*` entries for the point's record."""
+    robot = data.get("robot", DEFAULT_ROBOT)
+    if robot not in ROBOTS:
+        return {}  # reported by check_scenario, at the `robot` key
+    applied: dict[str, float] = {}
+    if spec.sizes_for is not None and robot != spec.sizes_for:
+        scales = robot_scales(robot, spec.sizes_for)
+        _scale_sizes(data, scales)
+        applied = {f"{SCALE_PREFIX}{name}": factor for name, factor in scales.items()}
+    for key, value in spec.per_robot.get(robot, {}).items():
+        try:
+            _set_dotted(data, key, copy.deepcopy(value))
+        except (KeyError, TypeError):
+            raise ScenarioError(path, _line_of(doc, ("per_robot", robot, key)), f"per_robot.{robot}.{key}",
+                                "not a key of the scenario") from None
+    return applied
 
 
 def _sweep_error(path: Path, doc: CommentedMap, spec: ScenarioFile, swept: dict[str, Any], exc: ValidationError) -> ScenarioError:
@@ -275,13 +341,14 @@ def _origin(spec: ScenarioFile, key: str) -> tuple[str, str]:
     return ("sweep", key) if key in spec.sweep else ("randomize", key)
 
 
-def load_scenario_file(path: Path | str) -> list[ScenarioPoint]:
-    """Parse, validate and expand one scenario file; raises ScenarioError on any bad input."""
+def load_scenario_file(path: Path | str, robot: str | None = None) -> list[ScenarioPoint]:
+    """Parse, validate and expand one scenario file; raises ScenarioError on any bad input.
+    `robot` replaces the file's robot (and any sweep over robots)."""
     path = Path(path)
-    return [point for doc in _read_yaml(path) for point in _load_document(path, doc)]
+    return [point for doc in _read_yaml(path) for point in _load_document(path, doc, robot)]
 
 
-def _load_document(path: Path, doc: CommentedMap) -> list[ScenarioPoint]:
+def _load_document(path: Path, doc: CommentedMap, robot: str | None = None) -> list[ScenarioPoint]:
     from fallbench.world import check_scenario  # the world knows robots, bodies and geometry
 
     try:
@@ -294,7 +361,11 @@ def _load_document(path: Path, doc: CommentedMap) -> list[ScenarioPoint]:
     for key, values in spec.sweep.items():
         if not values:
             raise ScenarioError(path, _line_of(doc, ("sweep", key)), f"sweep.{key}", "empty list of values")
-    points = _points(path, doc, spec)
+    for key, names in (("sizes_for", [spec.sizes_for] if spec.sizes_for else []), ("per_robot", list(spec.per_robot))):
+        for name in names:
+            if name not in ROBOTS:
+                raise ScenarioError(path, _line_of(doc, (key,)), key, f"unknown robot {name!r} (known: {', '.join(sorted(ROBOTS))})")
+    points = _points(path, doc, spec, robot)
     checked: set[str] = set()
     for point in points:
         fingerprint = scenario_hash(point.scenario.model_copy(update={"seed": 0}))
@@ -310,8 +381,8 @@ def _load_document(path: Path, doc: CommentedMap) -> list[ScenarioPoint]:
     return points
 
 
-def load_scenarios(paths: list[Path | str]) -> list[ScenarioPoint]:
-    return [point for path in paths for point in load_scenario_file(path)]
+def load_scenarios(paths: list[Path | str], robot: str | None = None) -> list[ScenarioPoint]:
+    return [point for path in paths for point in load_scenario_file(path, robot)]
 
 
 def canonical_json(data: Any) -> str:

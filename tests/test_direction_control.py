@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for
 from fallbench.preimpact.direction.inertia import (desired_inertia, inertia_about, inertia_jacobian, to_vector)
 from fallbench.preimpact.direction.stepping import swing_velocity
 from fallbench.scenario import Scenario

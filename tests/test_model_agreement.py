@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from fallbench.control.model import build_pinocchio
+from fallbench.dynamics.model import build_pinocchio
 from fallbench.scenario import Scenario
 from fallbench.world import build_world, initial_state
 

@@ -12,18 +12,20 @@ from tqdm import tqdm
 from fallbench import store
 from fallbench.report.claims import claims_table
 from fallbench.report.preimpact import preimpact_report
-from fallbench.report.figures import RIGHT_LEG_PITCH, gains_figure, imu_figure, knee_figure, torque_figure
+from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torque_figure
 from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
+from fallbench.report.grouping import with_robot
 
-TALOS_KNEE_LIMITS = (0.0, 2.618)  # rad, from the URDF (leg_*_4_joint)
 
-
-def _torque_limits() -> dict[str, float]:
+def _leg(robot: str) -> tuple[dict[str, str], tuple[float, float], dict[str, float]]:
+    """A robot's right-leg pitch joints, its knee range (rad, from the URDF) and their torque limits (Nm)."""
     from fallbench.scenario import Scenario
     from fallbench.world import build_world
 
-    world = build_world(Scenario(name="limits", duration=1.0))
-    return {j: float(world.torque_limit[world.joint_names.index(j)]) for j in RIGHT_LEG_PITCH.values()}
+    world = build_world(Scenario(name="limits", duration=1.0, robot=robot))
+    leg = world.robot.leg_pitch("right")
+    low, high = world.joint_range[world.joint_names.index(leg["knee"])]
+    return leg, (float(low), float(high)), {j: float(world.torque_limit[world.joint_names.index(j)]) for j in leg.values()}
 
 
 def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> dict[str, list[Path]]:
@@ -31,17 +33,17 @@ def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) 
     002: gain policies alone (pre-impact strategy `none`)."""
     figures: dict[str, list[Path]] = {}
     ok = runs[(runs.status == "ok") & runs.scenario.str.contains("drop|push") & (runs.pre_impact == "none")]
-    limits = _torque_limits()
     points = [(point, group) for point, group in ok.groupby("point") if group.policy.nunique() > 1]
     for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):
+        leg, knee_limits, limits = _leg(group.robot.iloc[0])
         series = {row.policy: store.load_timeseries(results, row.run_id) for row in group.itertuples()}
         stem = "".join(c if c.isalnum() else "_" for c in point).strip("_")
         paths = imu_figure(series, group, point, out, f"fig6a_{stem}")
-        paths += knee_figure(series, group, TALOS_KNEE_LIMITS, point, out, f"fig6b_{stem}")
-        paths += torque_figure(series, group, limits, point, out, f"fig4_{stem}")
+        paths += knee_figure(series, group, knee_limits, point, out, f"fig6b_{stem}", leg)
+        paths += torque_figure(series, group, limits, point, out, f"fig4_{stem}", leg)
         if "adaptive_qp" in series:
             impact = group.loc[group.policy == "adaptive_qp", "impact_time"].iloc[0]
-            paths += gains_figure(series["adaptive_qp"], impact, point, out, f"fig5_{stem}")
+            paths += gains_figure(series["adaptive_qp"], impact, point, out, f"fig5_{stem}", leg)
         figures[point] = paths
     return figures
 
@@ -55,6 +57,7 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     runs = store.load_metrics(results)
     if runs.empty:
         raise FileNotFoundError(f"{results}: the results store has no runs")
+    runs = with_robot(runs)
     out.mkdir(parents=True, exist_ok=True)
     figures = paper_figures(runs, results, out, progress)
     sweep_paths = distribution_figure(runs[runs.status == "ok"], out) + parameter_figures(runs[runs.status == "ok"], out)

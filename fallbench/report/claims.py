@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import pandas as pd
 
+from fallbench.report.grouping import with_robot
+
 STOP = 0.0  # rad: knee margin at or below this = the knee reached its mechanical stop
 
 
@@ -40,14 +42,17 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
 
 
 def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """Claims over the single 1 m drop and over every drop run of the sweep."""
+    """Claims over the single 1 m drop and over every drop run of the sweep, per robot."""
+    runs = with_robot(runs)
     drops = runs[(runs.status == "ok") & runs.scenario.str.contains("drop") & (runs.pre_impact == "none")]
     rows: list[dict[str, str]] = []
     height = "param:initial.height"
-    if height in drops.columns:
-        one_metre = drops[drops[height] == 1.0]
-        if len(one_metre):
-            rows += _claims_for(one_metre, "1 m drop")
-    if len(drops):
-        rows += _claims_for(drops, f"all drops ({drops[height].nunique() if height in drops else 1} heights)")
+    for robot, robot_drops in drops.groupby("robot"):
+        scoped: list[dict[str, str]] = []
+        if height in robot_drops.columns:
+            one_metre = robot_drops[robot_drops[height] == 1.0]
+            if len(one_metre):
+                scoped += _claims_for(one_metre, "1 m drop")
+        scoped += _claims_for(robot_drops, f"all drops ({robot_drops[height].nunique() if height in robot_drops else 1} heights)")
+        rows += [{"robot": robot, **row} for row in scoped]
     return pd.DataFrame(rows)

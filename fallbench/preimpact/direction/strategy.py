@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig

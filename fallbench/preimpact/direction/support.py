@@ -8,16 +8,20 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+
 
 def sole_corners(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.ndarray:
-    """(4, 2) ground projection of the bottom face of the foot body's box geom, m, world."""
+    """(k, 2) ground-plane hull of the foot body's collision geometry (its geoms' bounding-box
+    corners), m, world: the sole when the foot is flat."""
     body_id = model.body(body).id
-    box = next(g for g in range(model.ngeom) if model.geom_bodyid[g] == body_id and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX)
-    half = model.geom_size[box]
-    signs = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], dtype=float)
-    local = np.column_stack([signs * half[:2], -half[2] * np.ones(4)])
-    corners = local @ data.geom_xmat[box].reshape(3, 3).T + data.geom_xpos[box]
-    return corners[:, :2]
+    geoms = np.flatnonzero((model.geom_bodyid == body_id) & (model.geom_contype > 0))
+    corners = []
+    for geom in geoms:
+        centre, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
+        local = centre + UNIT_CORNERS * half
+        corners.append(local @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom])
+    return convex_hull(np.concatenate(corners)[:, :2])
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
