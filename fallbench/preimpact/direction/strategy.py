@@ -180,15 +180,23 @@ class DirectionStrategy(Strategy):
         qdot = np.zeros(self.P.model.nv - 6)
         if self.plan.chosen.swing is not None and self.step_done is None:
             self._swing(t, qdot)
+            self._within_speed_limits(qdot)
         if self.plan.inertia_shaping and self.plan.desired is not None:
+            placed = qdot.copy()
             self._shape(data, q, v, xi, qdot)
-        excess = float(np.max(np.abs(qdot) / self.speed_limit))
-        if excess > 1.0:
-            qdot /= excess  # the same direction at the joints' rated speeds
+            shaping = qdot - placed
+            self._within_speed_limits(shaping)  # the foot placement keeps its speed, inertia shaping gets scaled
+            qdot = placed + shaping
         world, dt = self.world, self.scenario.control_dt
         self.qd_ref = qdot[self.P.actuated_v - 6]
         self.q_ref = np.clip(self.q_ref + self.qd_ref * dt, world.joint_range[:, 0], world.joint_range[:, 1])
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
+
+    def _within_speed_limits(self, qdot: np.ndarray) -> None:
+        """Scale joint velocities (in place) to the joints' rated speeds, keeping their direction."""
+        excess = float(np.max(np.abs(qdot) / self.speed_limit))
+        if excess > 1.0:
+            qdot /= excess
 
     # ------------------------------------------------------------------ results
 
