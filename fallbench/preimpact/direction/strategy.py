@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from fallbench.dynamics.model import pinocchio_for
+from fallbench.events import capture_point, support_polygon
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
@@ -26,8 +27,8 @@ from fallbench.preimpact.direction.geometry import grown_circles, object_circle,
 from fallbench.preimpact.direction.inertia import damped_solve, desired_inertia, inertia_about, inertia_jacobian, to_vector
 from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
 from fallbench.preimpact.direction.stepping import swing_velocity
-from fallbench.preimpact.direction.support import convex_hull, nearest_pivot, sole_corners
-from fallbench.preimpact.direction.trigger import ControlTrigger, capture_point
+from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
+from fallbench.preimpact.direction.trigger import ControlTrigger
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.world import World
@@ -98,7 +99,7 @@ class DirectionStrategy(Strategy):
         pin.updateFramePlacements(model, pdata)
         pin.centerOfMass(model, pdata, q, v)
         com, com_velocity = pdata.com[0].copy(), pdata.vcom[0].copy()
-        xi = capture_point(com, com_velocity, self.com_height)
+        xi = capture_point(com, com_velocity)
         if self.plan is None:
             if not self.trigger.update(t, xi):
                 return None
@@ -123,7 +124,7 @@ class DirectionStrategy(Strategy):
         self.regions = safe_regions(circles, self.origin)
         soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
         self.sole_centres = {side: corners.mean(axis=0) for side, corners in soles.items()}
-        state = FallState(com, com_velocity, 0.0, self.com_height, config.touchdown_fraction * self.com_height)
+        state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
         candidates, _ = evaluate(soles, state, self.grid, self.objects)
         self.plan = choose(candidates, self.regions, config.mode, config.selection, config.w1, config.w2, config.allow_capture)
         self.plan_ms = (time.perf_counter() - started) * 1e3
@@ -160,7 +161,7 @@ class DirectionStrategy(Strategy):
         model, pdata, plan = self.P.model, self.P.data, self.plan
         swing = plan.chosen.swing
         soles = [sole_corners(self.world.model, data, body) for side, body in self.feet.items() if side != swing]
-        pivot = nearest_pivot(convex_hull(np.vstack(soles)), xi)
+        pivot = nearest_pivot(support_polygon(np.vstack(soles)), xi)
         point = np.array([*pivot.point, 0.0])
         stance = next((s for s in self.frames if s != swing), "left") if swing else min(
             self.frames, key=lambda s: float(np.linalg.norm(pdata.oMf[self.frames[s]].translation[:2] - pivot.point)))
