@@ -224,7 +224,8 @@ class DirectionStrategy(Strategy):
             row["step_target_x"], row["step_target_y"] = (float(x) for x in plan.chosen.target)
         if plan:
             best = {}
-            for c in sorted(plan.candidates, key=lambda c: c.score):
+            usable = [c for c in plan.candidates if c.kind == "no_action" or self.config.allow_capture or not c.capturing]
+            for c in sorted(usable, key=lambda c: c.score):
                 best.setdefault(c.name, c)
             row["direction_candidates"] = json.dumps([{"name": c.name, "deg": round(math.degrees(c.direction), 1),
                                                        "score": round(c.score, 3) if math.isfinite(c.score) else None,
