@@ -11,6 +11,7 @@ import copy
 import hashlib
 import itertools
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
@@ -119,6 +120,7 @@ class ScenarioFile(Scenario):
     randomize: dict[str, tuple[float, float]] = {}
     sweep: dict[str, list[Any]] = {}
     seeds: Annotated[int, Field(ge=1)] = 1
+    layout_yaw: float = 0.0  # deg: turns every obstacle about the world z axis through the origin (the robot)
     sizes_for: str | None = None  # robot the push forces and obstacle geometry are written for (scaled on others)
     per_robot: dict[str, dict[str, Any]] = {}  # robot -> dotted key -> value, applied after the scaling
 
@@ -256,6 +258,19 @@ def _set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
     node[keys[-1]] = value
 
 
+def _turn_layout(data: dict[str, Any], yaw_deg: float) -> None:
+    """Obstacles turned by `yaw_deg` about the origin: positions rotate, boxes turn with them."""
+    if not yaw_deg or not isinstance(data.get("obstacles"), list):
+        return
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    for obstacle in data["obstacles"]:
+        if isinstance(obstacle, dict) and isinstance(obstacle.get("pos"), list) and len(obstacle["pos"]) == 3:
+            x, y, z = obstacle["pos"]
+            obstacle["pos"] = [c * x - s * y, s * x + c * y, z]
+            if obstacle.get("type") == "box":
+                obstacle["yaw"] = obstacle.get("yaw", 0.0) + yaw_deg
+
+
 def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None = None) -> list[ScenarioPoint]:
     base = _plain(doc)
     for key in ("sweep", "randomize", "seeds", "sizes_for", "per_robot"):
@@ -277,6 +292,10 @@ def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None
                     _set_dotted(data, key, value)
                 except (KeyError, TypeError):
                     raise ScenarioError(path, _line_of(doc, _origin(spec, key)), key, "not a key of the scenario") from None
+            yaw = data.pop("layout_yaw", 0.0)
+            if isinstance(yaw, bool) or not isinstance(yaw, (int, float)):
+                raise ScenarioError(path, _line_of(doc, _origin(spec, "layout_yaw")), "layout_yaw", f"expected degrees (got {yaw!r})")
+            _turn_layout(data, yaw)
             swept.update(_robot_sizes(path, doc, spec, data))
             try:
                 scenario = Scenario.model_validate(data)
