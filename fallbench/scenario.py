@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError
@@ -63,10 +63,21 @@ class Cylinder(Strict):
 Obstacle = Annotated[Union[Box, Cylinder], Field(discriminator="type")]
 
 
+DetectionMethod = Literal["capture_point", "tilt", "freefall"]
+
+
 class Detection(Strict):
+    # Detectors that may declare the fall; the earliest to fire wins (see fallbench/events.py).
+    method: Annotated[tuple[DetectionMethod, ...], Field(min_length=1)] = ("capture_point", "tilt", "freefall")
+    capture_point_margin: float = 0.02  # m the capture point must be outside the feet's support polygon
     tilt: Annotated[float, Field(gt=0, lt=90)] = 15.0  # deg of torso tilt that declares a fall (000)
     freefall: NonNegativeFloat = 3.0  # m/s^2: accelerometer norm below this declares free fall
     freefall_hold: NonNegativeFloat = 0.02  # s the accelerometer must read free fall
+
+    @field_validator("method", mode="before")
+    @classmethod
+    def _one_or_many(cls, value: Any) -> Any:
+        return (value,) if isinstance(value, str) else value
 
 
 class Scenario(Strict):
@@ -83,7 +94,7 @@ class Scenario(Strict):
     obstacles: list[Obstacle] = []
     detection: Detection = Detection()
     policy_params: dict[str, dict[str, Any]] = {}  # policy (or `reshape`) name -> parameter overrides
-    pre_impact: tuple[Literal["none", "reshape"], ...] | None = None  # pins the strategies swept for this scenario
+    pre_impact: tuple[str, ...] | None = None  # pins the strategies swept for this scenario (names checked in world.check_scenario)
     seed: Annotated[int, Field(ge=0)] = 0
 
     @model_validator(mode="after")

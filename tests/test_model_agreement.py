@@ -7,7 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.control.model import build_pinocchio
+from fallbench.dynamics.model import build_pinocchio
 from fallbench.robots import ROBOTS
 from fallbench.scenario import Scenario
 from fallbench.world import build_world, initial_state

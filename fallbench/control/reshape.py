@@ -22,21 +22,21 @@ import mujoco
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import model_terms
-from fallbench.control.contacts import environment_contacts
-from fallbench.control.dense_qp import DenseQP
+from fallbench.dynamics.contacts import environment_contacts
+from fallbench.dynamics.dense_qp import DenseQP
 from fallbench.control.fall_direction import FallDirection, fall_class, heading
 from fallbench.control.fall_posture import fall_posture
 from fallbench.control.landing import Candidate, choose, landing_candidates
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for
 from fallbench.control.reach import reach_polyhedra
 from fallbench.control.reshape_qp import SetPoint, build_reshape_problem
 from fallbench.control.surfaces import scene_surfaces
-from fallbench.control.tasks.body_point import BodyPoint
-from fallbench.control.tasks.com import ComTask
-from fallbench.control.tasks.posture import PostureTask
-from fallbench.control.tasks.relative_distance import RelativeDistanceTask, SurfacePair
-from fallbench.control.tasks.surface_position import SurfacePositionTask
-from fallbench.control.tasks.vector_orientation import VectorOrientationTask
+from fallbench.dynamics.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.posture import PostureTask
+from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
+from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
+from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.world import World

@@ -1,9 +1,11 @@
-"""Post-impact gain policies, by the name users type in `--policies`."""
+"""Post-impact gain policies, by the name users type in `--policies`: the built-in ones and those
+other packages register under the `fallbench.policies` entry point (see `fallbench.plugins`)."""
 
 from __future__ import annotations
 
 from typing import Any
 
+from fallbench.plugins import load_plugins
 from fallbench.policies.adaptive_qp import AdaptiveQPPolicy
 from fallbench.policies.base import GainPolicy, Observation
 from fallbench.policies.oneshot import OneshotPolicy
@@ -25,5 +27,8 @@ def make_policy(name: str, world: Any, scenario: Any) -> GainPolicy:
         raise ValueError(f"unknown policy {name!r}; known: {', '.join(POLICIES)}") from None
     return cls(world, scenario)
 
+
+# last: a plugin may import this module
+POLICIES.update(load_plugins("fallbench.policies", GainPolicy, POLICIES))  # type: ignore[arg-type]
 
 __all__ = ["GainPolicy", "Observation", "POLICIES", "make_policy"]

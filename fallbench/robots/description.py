@@ -67,6 +67,7 @@ class RobotDescription:
     disabled_collisions: tuple[tuple[str, str], ...] = ()  # body pairs that never collide
     # Columns: the robot's forward, left and up directions in the torso body's frame.
     torso_axes: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    feet: dict[str, str] = field(default_factory=dict)  # "left"/"right" -> the foot body that carries the sole
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine."""

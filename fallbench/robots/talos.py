@@ -93,6 +93,7 @@ def talos() -> RobotDescription:
         legs={side: tuple(f"leg_{side}_{i}_joint" for i in range(1, 7)) for side in SIDES},
         leg_pitch_joints={"hip": ("leg_left_3_joint", "leg_right_3_joint"), "knee": ("leg_left_4_joint", "leg_right_4_joint"),
                           "ankle": ("leg_left_5_joint", "leg_right_5_joint")},
+        feet={side: f"leg_{side}_6_link" for side in ("left", "right")},
         timeseries_joints=TALOS_TIMESERIES_JOINTS,
         trajectory_joints=TALOS_TRAJECTORY_JOINTS,
         vulnerable_bodies=TALOS_VULNERABLE,
