@@ -145,6 +145,8 @@ class ScenarioPoint:
     @property
     def label(self) -> str:
         parts = [f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith(("randomize:", SCALE_PREFIX))]
+        if "robot" not in self.swept and self.scenario.robot != DEFAULT_ROBOT:
+            parts.insert(0, f"robot={self.scenario.robot}")  # points of different robots never share a label
         return self.scenario.name + ("[" + ",".join(parts) + "]" if parts else "") + f"#s{self.scenario.seed}"
 
 
