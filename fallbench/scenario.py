@@ -8,6 +8,7 @@ sweep points, robot names, obstacles against the robot's start pose) before anyt
 from __future__ import annotations
 
 import copy
+import datetime
 import hashlib
 import itertools
 import json
@@ -19,7 +20,7 @@ from typing import Annotated, Any, Literal, Union
 import numpy as np
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 from ruamel.yaml import YAML
-from ruamel.yaml.comments import CommentedMap, CommentedSeq
+from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 # Every number of a scenario is finite (Strict's allow_inf_nan=False) and within a documented
@@ -27,7 +28,7 @@ from ruamel.yaml.error import MarkedYAMLError, YAMLError
 # every numeric field of the schema has a lower and an upper one).
 MAX_STEPS_PER_RUN = 200_000  # physics steps (duration / physics_dt) of one run: ~10-15 s of wall time
 MAX_POINTS_PER_FILE = 10_000  # sweep points x seeds of one scenario file
-MAX_FILE_BYTES = 1 << 20  # 1 MiB: a scenario file is a page of YAML
+MAX_FILE_BYTES = 128 << 10  # 128 KiB: a scenario file is a page or two of YAML (parsing 128 KiB takes ~1 s)
 MAX_NESTING = 16  # levels of YAML mappings and lists
 MAX_TEXT = 200  # characters of a name
 
@@ -222,54 +223,45 @@ def _read_text(path: Path) -> str:
         raise ScenarioError(path, line, "", f"not UTF-8 text (byte 0x{data[exc.start]:02x}): a scenario file is UTF-8 YAML text") from None
 
 
-def _check_events(path: Path, text: str) -> None:
-    """Reject what plain scenario data never needs, before anything is built from the YAML:
-    tags (`!!python/...`, `!foo`), aliases (they multiply nodes), nesting deeper than MAX_NESTING,
+PLAIN_SCALARS = (str, int, float, bool, type(None), datetime.date)  # dates: implicit YAML timestamps
+
+
+def _check_tree(path: Path, node: Any, where: tuple[Any, ...] = (), line: int = 1, seen: set[int] | None = None) -> None:
+    """Reject what plain scenario data never needs: tags (`!!python/...`, `!foo`, `!!binary`,
+    `!!set`), aliases of mappings or lists (they multiply nodes), nesting deeper than MAX_NESTING,
     keys that are not plain scalars."""
-    stack: list[list[Any]] = []  # per open mapping ["map", key, expecting a key] or sequence ["seq", index]
-
-    def where() -> str:
-        return ".".join(str(frame[1]) for frame in stack if frame[1] is not None)
-
-    def done() -> None:  # a value is complete: the enclosing mapping expects a key, a sequence its next item
-        if stack and stack[-1][0] == "map":
-            stack[-1][2] = True
-        elif stack:
-            stack[-1][1] += 1
-
-    for event in YAML(typ="rt").parse(text):
-        kind = type(event).__name__
-        line = event.start_mark.line + 1
-        if kind in ("MappingEndEvent", "SequenceEndEvent"):
-            stack.pop()
-            done()
-            continue
-        if kind not in ("ScalarEvent", "MappingStartEvent", "SequenceStartEvent", "AliasEvent"):
-            continue
-        is_key = bool(stack) and stack[-1][0] == "map" and stack[-1][2]
-        if kind == "AliasEvent":
-            raise ScenarioError(path, line, where(), "YAML aliases (*name) are not allowed in scenario files: write the value out")
-        if event.tag is not None:
-            raise ScenarioError(path, line, where(), f"YAML tags ({event.tag}) are not allowed in scenario files")
-        if is_key:
-            if kind != "ScalarEvent":
-                raise ScenarioError(path, line, where(), "a key must be a plain name")
-            stack[-1][1], stack[-1][2] = event.value, False
-            continue
-        if kind == "ScalarEvent":
-            done()
-            continue
-        if len(stack) >= MAX_NESTING:
-            raise ScenarioError(path, line, where(), f"nested deeper than {MAX_NESTING} levels")
-        stack.append(["map", None, True] if kind == "MappingStartEvent" else ["seq", 0])
+    seen = set() if seen is None else seen
+    key = ".".join(map(str, where))
+    if type(node) in (CommentedMap, CommentedSeq):
+        if node.tag.value is not None:
+            raise ScenarioError(path, line, key, f"YAML tags ({node.tag.value}) are not allowed in scenario files")
+        if id(node) in seen:
+            raise ScenarioError(path, line, key, "YAML aliases (*name) of mappings or lists are not allowed in scenario files: write the value out")
+        seen.add(id(node))
+        if len(where) >= MAX_NESTING:
+            raise ScenarioError(path, line, key, f"nested deeper than {MAX_NESTING} levels")
+        if isinstance(node, CommentedMap):
+            for name, value in node.items():
+                here = node.lc.key(name)[0] + 1
+                if not isinstance(name, PLAIN_SCALARS):
+                    raise ScenarioError(path, here, key, "a key must be a plain name")
+                _check_tree(path, value, where + (name,), here, seen)
+        else:
+            for index, value in enumerate(node):
+                _check_tree(path, value, where + (index,), node.lc.item(index)[0] + 1, seen)
+    elif not isinstance(node, PLAIN_SCALARS) or isinstance(node, TaggedScalar):
+        tag = getattr(node, "tag", None)
+        what = f"YAML tags ({getattr(tag, 'value', tag)})" if tag is not None else f"YAML tags and special types (here a {type(node).__name__})"
+        raise ScenarioError(path, line, key, f"{what} are not allowed in scenario files")
 
 
 def _read_yaml(path: Path) -> list[CommentedMap]:
     """The YAML documents of a file (several families can share a file, separated by `---`)."""
     text = _read_text(path)
     try:
-        _check_events(path, text)
         docs = list(YAML(typ="rt").load_all(text))
+    except RecursionError:
+        raise ScenarioError(path, None, "", f"nested far deeper than {MAX_NESTING} levels") from None
     except MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None
@@ -286,6 +278,7 @@ def _read_yaml(path: Path) -> list[CommentedMap]:
         if not isinstance(doc, CommentedMap):
             line = doc.lc.line + 1 if hasattr(doc, "lc") else 1
             raise ScenarioError(path, line, "", "a scenario document must be a YAML mapping")
+        _check_tree(path, doc)
     return docs
 
 

@@ -49,8 +49,11 @@ CASES = {
     "duplicate_key": ("name: t\nduration: 1\nduration: 2\n", 3, "", "duplicate key"),
     "yaml_tag": ("name: t\nduration: !!python/object/apply:os.system [ls]\n", 2, "duration", "YAML tags"),
     "local_tag": ("name: t\nduration: 1\ninitial: !posture {height: 1}\n", 3, "initial", "YAML tags"),
-    "alias": ("name: t\nduration: &d 1\ninitial: {height: *d}\n", 3, "initial.height", "aliases"),
+    "alias": ("name: t\nduration: 1\ninitial: &i {height: 0.5}\nsweep: {initial: [*i]}\n", 3, "sweep.initial.0", "aliases"),  # the line of the anchor
+    "billion_laughs": ("name: t\nduration: 1\nx: &a [1, 1]\ny: &b [*a, *a]\nz: [*b, *b]\n", 3, "y.0", "aliases"),
+    "binary_tag": ("name: t\nduration: 1\npolicy_params: {oneshot: {kp_factor: !!binary aGVsbG8=}}\n", 3, "policy_params.oneshot.kp_factor", "special types (here a bytes)"),
     "deep_nesting": ("name: t\nduration: 1\npolicy_params: " + "[" * 40 + "]" * 40 + "\n", 3, "policy_params" + ".0" * 15, "nested deeper than 16"),
+    "very_deep_nesting": ("name: t\nduration: 1\npolicy_params: " + "[" * 5000 + "]" * 5000 + "\n", None, "", "nested far deeper than 16"),
     "list_at_top": ("- name: t\n  duration: 1\n", 1, "", "must be a YAML mapping"),
     "scalar_at_top": ("just some text\n", 1, "", "must be a YAML mapping"),
     "empty": ("", 1, "", "empty file"),
@@ -61,7 +64,7 @@ BYTES = {  # files that are not UTF-8 text
     "binary": (bytes(range(256)) * 4, 1, "binary file"),
     "non_utf8": (b"name: t\nduration: 1\n# caf\xe9\n", 3, "not UTF-8 text (byte 0xe9)"),
     "control_character": (b"name: t\x07\nduration: 1\n", None, "special characters are not allowed"),
-    "huge": (b"name: t\nduration: 1\n" + b"#" * (1 << 20) + b"\n", None, "file too large"),
+    "huge": (b"name: t\nduration: 1\n" + b"#" * (128 << 10) + b"\n", None, "file too large"),
 }
 
 
@@ -81,7 +84,7 @@ def test_bad_scenario_is_one_clear_line(case: str, tmp_path: Path) -> None:
     path = tmp_path / "bad.yaml"
     path.write_text(text)
     message = _rejected(tmp_path, path)
-    assert message.startswith(f"error: {path}:{line}: {key + ': ' if key else ''}"), message
+    assert message.startswith(f"error: {path}{f':{line}' if line else ''}: {key + ': ' if key else ''}"), message
     assert reason in message, message
 
 
@@ -114,3 +117,12 @@ def test_validate_accepts_shipped_scenarios() -> None:
     result = CliRunner().invoke(app, ["scenarios", "validate", *files])
     assert result.exit_code == 0, result.output
     assert result.output.count(": ok,") == len(files) == 5
+
+
+def test_validate_states_the_default_robot(tmp_path: Path) -> None:
+    path = tmp_path / "ok.yaml"
+    path.write_text(GOOD)
+    result = CliRunner().invoke(app, ["scenarios", "validate", str(path)])
+    assert result.exit_code == 0 and result.output == f"{path}: ok, 1 points, robot talos (default: no `robot` key)\n"
+    path.write_text(GOOD + "robot: talos\n")
+    assert CliRunner().invoke(app, ["scenarios", "validate", str(path)]).output == f"{path}: ok, 1 points, robot talos\n"
