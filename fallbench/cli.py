@@ -165,7 +165,9 @@ def validate_command(files: list[Path] = typer.Argument(..., help="Scenario YAML
     """Check scenario files completely (schema, sweep points, robot, obstacles) without running them."""
     for file in files:
         points = _load([file])
-        typer.echo(f"{file}: ok, {len(points)} points")
+        robots = sorted({p.scenario.robot for p in points})
+        defaulted = any("robot" not in p.scenario.model_fields_set for p in points)
+        typer.echo(f"{file}: ok, {len(points)} points, robot {', '.join(robots)}" + (" (default: no `robot` key)" if defaulted else ""))
 
 
 @scenarios_app.command("export")

@@ -106,7 +106,6 @@ def g1() -> RobotDescription:
                           for part, suffix in (("hip", "_pitch"), ("knee", ""), ("ankle", "_pitch"))},
         timeseries_joints=G1_TIMESERIES_JOINTS,
         trajectory_joints=G1_TRAJECTORY_JOINTS,
-        feet={side: f"{side}_ankle_roll_link" for side in SIDES},
         vulnerable_bodies=("head_link",) + tuple(f"{side}_{part}" for side in SIDES for part in ("wrist_yaw_link", "rubber_hand")),
         armature=G1_ARMATURE,
         postures={DEFAULT_POSTURE: G1_DEFAULT},
