@@ -48,7 +48,7 @@ def _solve(step, config: QPConfig = QPConfig()):
     P, world = policy.P, policy.world
     q, v = P.state(qpos, qvel)
     e, e_dot = q_ref - q_meas, -qd_meas
-    terms = model_terms(P, q, v, points)
+    terms = model_terms(P, q, v, points, inertia=True)
     problem = build_problem(P, terms, points, selected, q_ref, policy.com_ref, e, e_dot, held, world.torque_limit,
                             policy.scenario.control_dt, config)
     status, solved, _, y = DenseQP(config.eps_abs, config.max_iter, config.max_iter_in).solve(problem)

@@ -114,8 +114,9 @@ def acceleration_map(P: PinocchioModel, terms: ModelTerms, JtG: np.ndarray, sele
     H_inv = terms.H_inv
     columns = H_inv[:, P.actuated_v[selected]]
     M = np.hstack([H_inv @ JtG, columns * e[selected], columns * e_dot[selected]])
-    not_selected = np.setdiff1d(np.arange(len(e)), selected)
-    m = H_inv[:, P.actuated_v[not_selected]] @ held_torque[not_selected] - H_inv @ terms.C
+    others = np.ones(len(e), dtype=bool)
+    others[selected] = False
+    m = H_inv[:, P.actuated_v[others]] @ held_torque[others] - H_inv @ terms.C
     return AccelerationMap(M, m)
 
 
@@ -154,8 +155,8 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
     qp.zero_acceleration(*normal_acceleration_rows(points, terms.contacts))
     e_s, e_dot_s, limit_s = e[selected], e_dot[selected], torque_limit[selected]
     torque_rows = np.zeros((n_s, len(scale)))
-    torque_rows[:, K] = np.diag(e_s)
-    torque_rows[:, B] = np.diag(e_dot_s)
+    diagonal = np.arange(n_s)
+    torque_rows[diagonal, n_l + diagonal], torque_rows[diagonal, n_l + n_s + diagonal] = e_s, e_dot_s
     qp.within(torque_rows, -limit_s, limit_s)
     if config.overdamping_ratio > 0:
         overdamping = np.zeros((n_s, len(scale)))

@@ -131,7 +131,7 @@ class ReshapeController:
         world, cfg, model = self.world, self.cfg, self.P.model
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
-        terms = model_terms(self.P, q, v, points)
+        terms = model_terms(self.P, q, v, points, inertia=True)
         torso_rotation = self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))

@@ -44,6 +44,7 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: list[Con
                           w_lambda: float, w_qdd: float, w_contact: float) -> ReshapeProblem:
     """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s)."""
     nv = P.model.nv
+    assert terms.H is not None, "model_terms(..., inertia=True)"
     G = cone_matrix(points)
     JtG = terms.contacts.jacobian.T @ G
     n_l = G.shape[1]

@@ -16,8 +16,8 @@ from fallbench.dynamics.model import PinocchioModel
 class ModelTerms:
     q: np.ndarray
     v: np.ndarray
-    H: np.ndarray  # inertia matrix (with rotor armature), (nv, nv)
-    H_inv: np.ndarray  # its inverse
+    H: np.ndarray | None  # inertia matrix (with rotor armature), (nv, nv); None unless asked for
+    H_inv: np.ndarray  # the inverse inertia matrix
     C: np.ndarray  # gravity, Coriolis and centrifugal terms, N or Nm
     contacts: ContactKinematics
     com: np.ndarray  # m
@@ -26,14 +26,21 @@ class ModelTerms:
     J_com: np.ndarray  # (3, nv)
 
 
-def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint]) -> ModelTerms:
-    """All terms at (q, v); afterwards P.data holds the kinematics every task's `compute` needs
-    (forwardKinematics(q, v, 0), computeJointJacobians(q), updateFramePlacements)."""
+def _symmetric(upper: np.ndarray) -> np.ndarray:
+    """The full matrix from Pinocchio's upper triangle (crba, computeMinverse fill only that)."""
+    lower = np.tril_indices(len(upper), -1)
+    full = upper.copy()
+    full[lower] = upper.T[lower]
+    return full
+
+
+def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint], inertia: bool = False) -> ModelTerms:
+    """All terms at (q, v), the inertia matrix itself only if `inertia`; afterwards P.data holds the
+    kinematics every task's `compute` needs (forwardKinematics(q, v, 0), computeJointJacobians(q),
+    updateFramePlacements)."""
     model, data = P.model, P.data
-    H = pin.crba(model, data, q)
-    H = np.triu(H) + np.triu(H, 1).T  # Pinocchio fills the upper triangles
-    H_inv = pin.computeMinverse(model, data, q)
-    H_inv = np.triu(H_inv) + np.triu(H_inv, 1).T
+    H = _symmetric(pin.crba(model, data, q)) if inertia else None
+    H_inv = _symmetric(pin.computeMinverse(model, data, q))
     C = pin.nonLinearEffects(model, data, q, v).copy()
     pin.computeJointJacobians(model, data, q)
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
