@@ -85,11 +85,12 @@ def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impa
 
 def test_a_resting_foot_has_zero_normal_acceleration(post_impact) -> None:
     """A step with both feet flat (four corners each): the solution's contact-point accelerations
-    have no normal component, while tangential motion stays free (a cost)."""
+    have no normal component (tangential motion is a cost)."""
     flat = [s for s in post_impact if len(s[6]) == 8 and s[9] == set(FEET)]
     assert flat
     step = flat[len(flat) // 2]
-    terms, _, qdd, *_ = _solve(step)
+    terms, problem, qdd, *_ = _solve(step)
+    assert problem.A.shape[0] == 6  # three independent rows per flat foot
     acc = (terms.contacts.jacobian @ qdd + terms.contacts.drift).reshape(-1, 3)
     normals = np.array([p.normal for p in step[6]])
     normal = np.einsum("ij,ij->i", acc, normals)

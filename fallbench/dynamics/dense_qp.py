@@ -53,8 +53,9 @@ class ScaledQP:
 
 class DenseQP:
     """One ProxSuite solver per problem size (sizes change with the number of contacts), kept for
-    the episode. With `warm_start` each solve starts from that solver's previous solution (fewer
-    iterations on a sequence of similar problems); otherwise from the equality-constrained guess."""
+    the episode unless its solve fails. With `warm_start` each solve starts from that solver's
+    previous solution (fewer iterations on a sequence of similar problems); otherwise from the
+    equality-constrained guess."""
 
     def __init__(self, eps_abs: float, max_iter: int, max_iter_in: int = 1500, warm_start: bool = False) -> None:
         self.eps_abs, self.max_iter, self.max_iter_in = eps_abs, max_iter, max_iter_in  # 1500: ProxSuite's default
@@ -84,4 +85,6 @@ class DenseQP:
         solver.solve()
         info = solver.results.info
         status = info.status.name.removeprefix("PROXQP_")
+        if status != "SOLVED":
+            del self.solvers[dims]  # a failed iterate is no start for the next solve
         return status, status == "SOLVED", int(info.iter), problem.scale * solver.results.x

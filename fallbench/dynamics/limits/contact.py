@@ -4,7 +4,9 @@ contact body's velocity instead).
 Every contact point's normal acceleration n'(J q_ddot + J_dot q_dot) is zero; tangential motion
 is left to a cost (sliding released, 002 Sec. VII). The points of one body are redundant (four
 corners of a flat foot give three independent rows), so the rows are combined per body into an
-independent set, which keeps the equality block full rank for the solver.
+independent set, which keeps the equality block full rank for the solver. (A per-point
+inequality, no point accelerating into the floor, was tried: the QP then tipped the feet and the
+robot fell from every height.)
 """
 
 from __future__ import annotations
