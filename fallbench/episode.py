@@ -26,8 +26,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import select_motors
-from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.events import (CapturePointDetector, FallDetector, FreefallDetector, ImpactDetector,
                               TiltDetector)
 from fallbench.impacts import ImpactEvent, ImpactLog

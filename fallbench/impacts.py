@@ -8,10 +8,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import select_motors
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.control.fall_singularity import Impact, singular_joints
-from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.world import World
 
 

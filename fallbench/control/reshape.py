@@ -21,15 +21,15 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import model_terms
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import DenseQP
 from fallbench.control.fall_direction import FallDirection, fall_class, heading
 from fallbench.control.fall_posture import fall_posture
 from fallbench.control.landing import Candidate, choose, landing_candidates
 from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.objective import SetPoint
 from fallbench.control.reach import reach_polyhedra
-from fallbench.control.reshape_qp import SetPoint, build_reshape_problem
+from fallbench.control.reshape_qp import build_reshape_problem, solve_reshape
 from fallbench.control.surfaces import scene_surfaces
 from fallbench.dynamics.tasks.body_point import BodyPoint
 from fallbench.dynamics.tasks.com import ComTask
@@ -37,6 +37,7 @@ from fallbench.dynamics.tasks.posture import PostureTask
 from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
 from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
 from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
+from fallbench.dynamics.terms import model_terms
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.world import World
@@ -130,7 +131,7 @@ class ReshapeController:
         world, cfg, model = self.world, self.cfg, self.P.model
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
-        terms = model_terms(self.P, q, v, points)
+        terms = model_terms(self.P, q, v, points, inertia=True)
         torso_rotation = world.robot.torso_frame(self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation)
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
@@ -146,8 +147,8 @@ class ReshapeController:
                               cfg.task_kp, cfg.task_kv))
         problem = build_reshape_problem(self.P, terms, points, tasks, world.torque_limit, world.joint_range,
                                         self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd, cfg.w_contact)
-        status, solved, _, x = self.qp.solve(problem)
-        qdd = x[self.P.actuated_v] if solved and np.isfinite(x).all() else np.zeros(world.model.nu)
+        status, solved, accelerations = solve_reshape(self.qp, problem)
+        qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
         self.q_ref = np.clip(self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2, world.joint_range[:, 0], world.joint_range[:, 1])
