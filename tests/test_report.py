@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.report.claims import claims_table
+from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
 
 SUITE = """name: drop
 duration: 0.8
@@ -110,3 +111,21 @@ def test_first_impact_table_counts_by_push_direction() -> None:
     assert table.loc[("back", "reshape"), "torso peak median (N)"] == 5
     assert table.loc[("front", "none"), "first on knees (%)"] == 100
     assert [push_label(d) for d in (0, 45, 90, 180, 225, -90)] == ["front", "front diagonal", "side", "back", "back diagonal", "side"]
+
+
+def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
+    """One line per policy and per adaptive_qp setting; other policies' repeats share their line."""
+    rows = pd.DataFrame([{
+        "scenario": "sensitivity", "status": "ok", "pre_impact": "none", "policy": policy,
+        "param:policy_params.stiff.gain_scale": scale, "param:policy_params.adaptive_qp.posture_kp": kp,
+        "imu_peak_z_landing": scale * (10.0 if policy == "stiff" else kp), "imu_peak_z": 1.0, "knee_limit_margin": 0.1,
+        "torque_demand_ratio_landing": 0.5, "qp_failures_landing": 0, "fell": policy == "stiff",
+    } for scale in (1.0, 2.0) for kp in (100, 25) for policy in ("stiff", "adaptive_qp")])
+    swept = sensitivity_runs(rows)
+    assert set(swept.line) == {"stiff", "adaptive_qp, posture_kp=100", "adaptive_qp, posture_kp=25"}
+    table = sensitivity_table(swept).set_index(["gain_scale", "line"])
+    assert table.loc[(2.0, "adaptive_qp, posture_kp=25"), "imu_peak_z_landing"] == 50.0
+    assert table.loc[(2.0, "stiff"), "imu_peak_z_landing"] == 20.0 and table.loc[(2.0, "stiff"), "fell"] == 1.0
+    paths = sensitivity_figure(swept, tmp_path)
+    assert [p.name for p in paths] == ["sensitivity_gain_scale.png", "sensitivity_gain_scale.svg"]
+    assert paths[0].stat().st_size > 10_000
