@@ -36,7 +36,7 @@ from fallbench.world import World
 if TYPE_CHECKING:
     from fallbench.episode import Recording
 
-LANDED = 0.005  # m: a sole frame this close to its standing height is on the ground
+LANDED = 0.015  # m: a foot frame this close to its standing height has landed (the ground tilts under a falling robot)
 
 
 def _yaw_only(rotation: np.ndarray) -> np.ndarray:
@@ -76,6 +76,7 @@ class DirectionStrategy(Strategy):
         self.standing: dict[str, pin.SE3] = {}  # foot frames at the fall trigger, soles flat
         self.sole_centres: dict[str, np.ndarray] = {}  # m, (2,) at the control trigger
         self.step_done: float | None = None
+        self.lifted = False  # the swing foot has left the ground
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
         self.step_ms: list[float] = []
 
@@ -146,13 +147,18 @@ class DirectionStrategy(Strategy):
             assert chosen.target is not None
             # the sole centre moves to the target: the frame moves by the same horizontal offset
             target_xy = home.translation[:2] + chosen.target - self.sole_centres[swing]
+            # lift straight up first (a loaded foot pushed sideways would move the body instead), then
+            # over to the target at the lift height, then down onto it
+            self.lifted = self.lifted or position[2] >= home.translation[2] + 0.5 * config.lift_height
             far = float(np.linalg.norm(target_xy - position[:2])) > 0.5 * config.step_tolerance
+            if not self.lifted:
+                target_xy = position[:2]
             target = np.array([*target_xy, home.translation[2] + (config.lift_height if far else 0.0)])
             if not far and position[2] <= home.translation[2] + LANDED:
                 self.step_done = t
                 return
         columns = self.leg_columns[swing]
-        qdot[columns] = swing_velocity(model, pdata, frame, self.frames[stance], columns, target, _yaw_only(home.rotation),
+        qdot[columns] = swing_velocity(model, pdata, frame, self.frames[stance], columns + 6, target, _yaw_only(home.rotation),
                                        config.step_gain, config.foot_speed, config.damping)
 
     def _shape(self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray) -> None:
