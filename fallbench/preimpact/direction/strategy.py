@@ -47,12 +47,11 @@ def _yaw_only(rotation: np.ndarray) -> np.ndarray:
 class DirectionStrategy(Strategy):
     name = "direction"
     defaults = DIRECTION_PARAMS
+    choices = {"mode": MODES, "selection": SELECTIONS}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
         self.config = config = DirectionConfig(**self.params)
-        if config.mode not in MODES or config.selection not in SELECTIONS:
-            raise ValueError(f"direction: mode must be one of {', '.join(MODES)} and selection one of {', '.join(SELECTIONS)}")
         self.P = pinocchio_for(world)
         model = self.P.model
         self.feet = world.robot.feet
