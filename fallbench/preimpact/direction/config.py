@@ -32,6 +32,8 @@ class DirectionConfig:
     damping: float = 1e-3  # damped pseudo-inverses
     step_tolerance: float = 0.05  # m: a step is complete when the sole lands this close to its target
     allow_capture: bool = False  # keep steps whose polygon holds the capture point (004's falls are certain)
+    tracking: bool = True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
+    tracking_period: float = 0.02  # s between tracking predictions
 
     @property
     def w2(self) -> float:
