@@ -176,10 +176,11 @@ class DirectionStrategy(Strategy):
     def _track(self, t: float, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
         """004 Secs. IV, VI: the strategy runs "in an interactive manner": every `tracking_period` s
         the fall is predicted again from the present state, about the planned support (the present
-        one once a step has landed), and whole-body inertia shaping starts when it has become unsafe."""
+        one once a step has landed), and whole-body inertia shaping starts when it has become unsafe.
+        Forced modes (ablations) run as chosen."""
         plan, config = self.plan, self.config
         assert plan is not None
-        if not config.tracking or plan.chosen.kind == "no_action" or plan.inertia_shaping == "wbis":
+        if not config.tracking or config.mode != "auto" or plan.chosen.kind == "no_action" or plan.inertia_shaping == "wbis":
             return
         if self.tracked is not None and t - self.tracked < config.tracking_period - 1e-9:
             return
