@@ -8,10 +8,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import select_motors
-from fallbench.control.contacts import environment_contacts
+from fallbench.dynamics.contacts import environment_contacts
 from fallbench.control.fall_singularity import Impact, singular_joints
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.world import World
 
 
@@ -106,7 +105,7 @@ def body_sides(world: World) -> dict[str, str]:
     """Side of every contact body: the arm (shoulder joint) or leg (first joint) it hangs from."""
     model, robot = world.model, world.robot
     roots = {model.jnt_bodyid[model.joint(arm.shoulder_joint).id]: side for side, arm in robot.arms.items()}
-    roots |= {model.jnt_bodyid[model.joint(joint).id]: side for side, joint in robot.leg_root_joints.items()}
+    roots |= {model.jnt_bodyid[model.joint(joint).id]: side for side, (joint, *_) in robot.legs.items()}
     sides = {}
     for body in world.contact_bodies:
         b = model.body(body).id

@@ -80,7 +80,7 @@ def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[st
 def _identity(spec: RunSpec) -> dict[str, Any]:
     scenario = spec.point.scenario
     row: dict[str, Any] = {
-        "run_id": spec.run_id, "schema_version": store.SCHEMA_VERSION, "scenario": scenario.name,
+        "run_id": spec.run_id, "schema_version": store.SCHEMA_VERSION, "robot": scenario.robot, "scenario": scenario.name,
         "point": spec.point.label, "source": spec.point.source, "policy": spec.policy,
         "pre_impact": spec.pre_impact, "seed": scenario.seed,
     }
@@ -162,7 +162,7 @@ def expected_cost(spec: RunSpec) -> float:
 
 def run_sweep(specs: list[RunSpec], results: Path, jobs: int = 2, progress: bool = True,
               backend: str = "loky", scheduler: str | None = None) -> pd.DataFrame:
-    """Run the specs not yet stored, then rebuild the consolidated table and return it."""
+    """Run the specs not yet stored, add them to the consolidated table, return the specs' rows."""
     results.mkdir(parents=True, exist_ok=True)
     unique = {s.run_id: s for s in specs}
     todo = sorted((s for rid, s in unique.items() if not store.is_done(results, rid)), key=expected_cost, reverse=True)
@@ -174,6 +174,6 @@ def run_sweep(specs: list[RunSpec], results: Path, jobs: int = 2, progress: bool
             for outcome in bar:
                 row = store_outcome(results, outcome)
                 bar.set_postfix_str(f"{row['pre_impact']}/{row['policy']} {row['point']}: {row['status']}")
-    table = store.consolidate(results)
-    wanted = set(unique)
-    return table[table["run_id"].isin(wanted)] if not table.empty else table
+    store.consolidate(results)
+    table = store.load_metrics(results, scenario=sorted({s.point.scenario.name for s in unique.values()}))
+    return table[table["run_id"].isin(set(unique))].reset_index(drop=True) if not table.empty else table

@@ -21,22 +21,23 @@ from typing import Any, Literal
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import model_terms
-from fallbench.control.contacts import environment_contacts
-from fallbench.control.dense_qp import DenseQP
+from fallbench.dynamics.contacts import environment_contacts
+from fallbench.dynamics.dense_qp import DenseQP
 from fallbench.control.fall_direction import FallDirection, fall_class, heading
 from fallbench.control.fall_posture import fall_posture
 from fallbench.control.landing import Candidate, choose, landing_candidates
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.objective import SetPoint
 from fallbench.control.reach import reach_polyhedra
-from fallbench.control.reshape_qp import SetPoint, build_reshape_problem
+from fallbench.control.reshape_qp import build_reshape_problem, solve_reshape
 from fallbench.control.surfaces import scene_surfaces
-from fallbench.control.tasks.body_point import BodyPoint
-from fallbench.control.tasks.com import ComTask
-from fallbench.control.tasks.posture import PostureTask
-from fallbench.control.tasks.relative_distance import RelativeDistanceTask, SurfacePair
-from fallbench.control.tasks.surface_position import SurfacePositionTask
-from fallbench.control.tasks.vector_orientation import VectorOrientationTask
+from fallbench.dynamics.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.posture import PostureTask
+from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
+from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
+from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
+from fallbench.dynamics.terms import model_terms
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.support import body_box_corners, world_corners
@@ -113,7 +114,7 @@ class ReshapeController:
         self.knees = [BodyPoint(world.model.body(world.model.jnt_bodyid[world.model.joint(j).id]).name, np.zeros(3))
                       for j in robot.knee_joints]
         self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
-        leg_joints = [j for root in robot.leg_root_joints.values() for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
+        leg_joints = [j for root in (leg[0] for leg in robot.legs.values()) for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
         self.qp = DenseQP(self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
         self.direction: FallDirection | None = None
@@ -158,13 +159,13 @@ class ReshapeController:
         world, cfg, model = self.world, self.cfg, self.P.model
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
-        terms = model_terms(self.P, q, v, points)
-        torso_rotation = self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation
+        terms = model_terms(self.P, q, v, points, inertia=True)
+        torso_rotation = world.robot.torso_frame(self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation)
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
         facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"
         lateral_target = np.cross(UP, direction) * (1.0 if facing == "front" else -1.0)
-        orientation = VectorOrientationTask(world.robot.torso_body, np.array([0.0, 1.0, 0.0]), lateral_target)
+        orientation = VectorOrientationTask(world.robot.torso_body, world.robot.torso_axis("left"), lateral_target)
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)
@@ -183,8 +184,8 @@ class ReshapeController:
                                   posture.drift()[rows], cfg.task_kp, cfg.task_kv))
         problem = build_reshape_problem(self.P, terms, points, tasks, world.torque_limit, world.joint_range,
                                         self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd, cfg.w_contact)
-        status, solved, _, x = self.qp.solve(problem)
-        qdd = x[self.P.actuated_v] if solved and np.isfinite(x).all() else np.zeros(world.model.nu)
+        status, solved, accelerations = solve_reshape(self.qp, problem)
+        qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
         self.q_ref = np.clip(self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2, world.joint_range[:, 0], world.joint_range[:, 1])
