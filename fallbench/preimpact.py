@@ -6,9 +6,12 @@ runs the posture-reshaping and landing-point controller of 002 Sec. IV / 000 Sec
 
 from __future__ import annotations
 
-from fallbench.control.reshape import ReshapeController
-from fallbench.scenario import Scenario
-from fallbench.world import World
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the reshaping controller loads only for runs that reshape (start-up time)
+    from fallbench.control.reshape import ReshapeController
+    from fallbench.scenario import Scenario
+    from fallbench.world import World
 
 STRATEGIES = ("none", "reshape")
 
@@ -16,4 +19,8 @@ STRATEGIES = ("none", "reshape")
 def make_strategy(name: str, world: World, scenario: Scenario) -> ReshapeController | None:
     if name not in STRATEGIES:
         raise ValueError(f"unknown pre-impact strategy {name!r}; known: {', '.join(STRATEGIES)}")
-    return ReshapeController(world, scenario, scenario.policy_params.get("reshape")) if name == "reshape" else None
+    if name == "none":
+        return None
+    from fallbench.control.reshape import ReshapeController
+
+    return ReshapeController(world, scenario, scenario.policy_params.get("reshape"))
