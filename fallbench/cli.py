@@ -12,7 +12,7 @@ import typer
 from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
 
 SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
-           Path("scenarios/clutter.yaml")]
+           Path("scenarios/clutter.yaml"), Path("scenarios/direction.yaml")]
 SUMMARY_COLUMNS = ["imu_peak_z", "knee_limit_margin", "torque_ratio_max", "torque_demand_ratio_max",
                    "joint_limit_hits", "contact_force_peak", "contact_force_peak_head", "contact_force_peak_torso",
                    "first_impact_safe", "landing_error", "fell"]
@@ -30,9 +30,9 @@ def fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
-def _load(files: list[Path]) -> list[ScenarioPoint]:
+def _load(files: list[Path], robot: str | None = None) -> list[ScenarioPoint]:
     try:
-        return load_scenarios(list(files))
+        return load_scenarios(list(files), robot)
     except ScenarioError as exc:
         fail(str(exc))
     raise AssertionError  # unreachable: fail() exits
@@ -53,13 +53,19 @@ def _policies(text: str) -> list[str]:
     return _names(text, POLICIES, "--policies", "policy")
 
 
+def _robot(name: str | None) -> str | None:
+    from fallbench.robots import ROBOTS
+
+    return None if name is None else _names(name, ROBOTS, "--robot", "robot")[0]
+
+
 def _strategies(text: str) -> list[str]:
     from fallbench.preimpact import STRATEGIES
 
     return _names(text, STRATEGIES, "--pre-impact", "strategy")
 
 
-PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape); a scenario's own `pre_impact` list wins."
+PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape, direction, or a plugin's); a scenario's own `pre_impact` list wins."
 
 
 def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> ScenarioPoint:
@@ -91,16 +97,17 @@ def _same(swept: object, text: str) -> bool:
 
 @run_app.command("sweep")
 def run_sweep_command(
-    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle and clutter scenarios)."),
+    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle, clutter and direction scenarios)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."),
-    backend: str = typer.Option("loky", help="loky: processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra)."),
+    backend: str = typer.Option("auto", help="auto: this process for one job or one run, else fork; fork: workers forked from this process (they start with its imports and compiled worlds); loky: fresh processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra)."),
     scheduler: str = typer.Option(None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster of --jobs workers)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
     strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
     progress: bool = typer.Option(True, help="Show a progress bar."),
+    robot: Optional[str] = typer.Option(None, help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see the README)."),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -115,10 +122,10 @@ def run_sweep_command(
         fail("--scheduler needs --backend dask")
     if backend == "dask" and importlib.util.find_spec("distributed") is None:
         fail("--backend dask needs Dask's distributed scheduler: pip install 'fallbench[dask]'")
-    points = _load(files or SHIPPED)
+    points = _load(files or SHIPPED, _robot(robot))
     specs = expand(points, _policies(policies), _strategies(pre_impact))
     table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty(), backend=backend, scheduler=scheduler)
-    keys = ["scenario", "pre_impact", "policy"]
+    keys = ["robot", "scenario", "pre_impact", "policy"]
     summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())
     summary.insert(1, "failed", table[table.status != "ok"].groupby(keys).size().reindex(summary.index, fill_value=0))
@@ -126,7 +133,7 @@ def run_sweep_command(
     (reports / "sweep_summary.md").write_text("# Sweep summary (medians over runs)\n\n" + summary.round(3).to_markdown() + "\n")
     typer.echo(summary.round(3).to_string())
     failed = table[table.status != "ok"]
-    typer.echo(f"\n{len(table)} runs in {results}/metrics.parquet, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md")
+    typer.echo(f"\n{len(table)} runs in {results}/metrics/, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md")
     for _, row in failed.iterrows():
         typer.echo(f"  {row.status}: {row.pre_impact}/{row.policy} {row.point}: {row.error}", err=True)
     if strict and len(failed):
@@ -138,7 +145,7 @@ def run_one_command(
     file: Path = typer.Argument(..., help="Scenario YAML file."),
     point: list[str] = typer.Option([], help="Sweep point: an index, or key=value (repeatable)."),
     policy: str = typer.Option("stiff", help="Gain policy."),
-    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none or reshape)."),
+    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none, reshape, direction, or a plugin's)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
 ) -> None:
     """Run one case, store it, and print its metrics."""
@@ -158,7 +165,9 @@ def validate_command(files: list[Path] = typer.Argument(..., help="Scenario YAML
     """Check scenario files completely (schema, sweep points, robot, obstacles) without running them."""
     for file in files:
         points = _load([file])
-        typer.echo(f"{file}: ok, {len(points)} points")
+        robots = sorted({p.scenario.robot for p in points})
+        defaulted = any("robot" not in p.scenario.model_fields_set for p in points)
+        typer.echo(f"{file}: ok, {len(points)} points, robot {', '.join(robots)}" + (" (default: no `robot` key)" if defaulted else ""))
 
 
 @scenarios_app.command("export")
@@ -188,8 +197,11 @@ def bench_command(
     sweep_runs: int = typer.Option(48, min=4, help="Runs in the 1-job vs 2-job throughput sweep (fewer: the last long run alone on one worker weighs more)."),
     out: Path = typer.Option(Path("reports/bench.md"), help="Markdown table to write."),
     json_path: Optional[Path] = typer.Option(None, "--json", help="Also write every figure as one flat JSON object."),
+    store: int = typer.Option(100_000, "--store", min=0, help="Runs in the synthetic results store measured (0: skip)."),
+    e2e_runs: str = typer.Option("20,100", help="Comma-separated sizes of the whole-command sweeps, 1 vs 2 jobs (multiples of 4, at most 100; empty: skip)."),
+    e2e_repeats: int = typer.Option(1, min=1, help="Pairs (1 job, 2 jobs) per whole-command sweep size (medians)."),
 ) -> None:
-    """Measure speed against the physics limit, 2-job scaling, memory and bytes per run.
+    """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store.
 
     Prints and writes a table: pure-physics steps/s; per policy, episode time / pure physics and /
     its own physics time, controller cost per control step; adaptive_qp's QP model, build and solve
@@ -200,7 +212,14 @@ def bench_command(
     from fallbench.bench import markdown, run_bench
 
     chosen = _select(_load([scenario]), point, scenario)
-    figures = run_bench(chosen, _strategies(pre_impact)[0], repeats, sweep_runs, progress=lambda m: typer.echo(f"bench: {m}", err=True))
+    try:
+        sizes = tuple(int(n) for n in e2e_runs.split(",") if n.strip())
+    except ValueError:
+        fail(f"--e2e-runs {e2e_runs!r}: expected comma-separated numbers of runs")
+    if any(n < 4 or n > 100 or n % 4 for n in sizes):
+        fail(f"--e2e-runs {e2e_runs!r}: each size must be a multiple of 4 between 4 and 100")
+    figures = run_bench(chosen, _strategies(pre_impact)[0], repeats, sweep_runs, progress=lambda m: typer.echo(f"bench: {m}", err=True),
+                        store_runs=store, e2e_runs=sizes, e2e_repeats=e2e_repeats)
     table = markdown(figures)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(table)
@@ -219,7 +238,10 @@ def report_command(
 ) -> None:
     """Draw the papers' figures per drop/push point, sweep comparisons and the claims table."""
     from fallbench.report import build_report
+    from fallbench.store import consolidate
 
+    if (results / "runs").is_dir():
+        consolidate(results)  # runs stored by `run one` or an interrupted sweep
     try:
         paths = build_report(results, out, progress=progress and sys.stderr.isatty())
     except FileNotFoundError as exc:
@@ -235,15 +257,29 @@ def results_command(
                                 help="Comma-separated columns."),
     fmt: str = typer.Option("table", "--format", help="table, csv or json."),
     failed: bool = typer.Option(False, help="Only failed or diverged runs, with their errors."),
+    scenario: Optional[str] = typer.Option(None, help="Comma-separated scenario names (read from the store by push-down)."),
+    policy: Optional[str] = typer.Option(None, help="Comma-separated policies."),
+    pre_impact: Optional[str] = typer.Option(None, help="Comma-separated pre-impact strategies."),
+    robot: Optional[str] = typer.Option(None, help="Comma-separated robots."),
+    sql: Optional[str] = typer.Option(None, help="SQL on the view `runs` (DuckDB), e.g. \"SELECT policy, median(imu_peak_z) FROM runs GROUP BY policy\"; replaces the other selection options."),
 ) -> None:
-    """List runs and metrics from the results store."""
-    from fallbench.store import load_metrics
+    """List runs and metrics from the results store (runs stored since the last sweep are added first)."""
+    from fallbench.store import consolidate, load_metrics, query
 
+    if (results / "runs").is_dir():
+        consolidate(results)
     try:
-        table = load_metrics(results)
+        if sql:
+            table = query(results, sql)
+            columns = ",".join(map(str, table.columns))
+        else:
+            filters = {"scenario": scenario, "policy": policy, "pre_impact": pre_impact, "robot": robot}
+            table = load_metrics(results, **{k: [v.strip() for v in text.split(",") if v.strip()] for k, text in filters.items() if text})
     except FileNotFoundError as exc:
         fail(str(exc))
-    if failed:
+    except ValueError as exc:
+        fail(f"--sql {sql!r}: {exc}")
+    if failed and not sql:
         table = table[table.status != "ok"]
         columns = "point,policy,status,error"
     if where:
@@ -253,9 +289,9 @@ def results_command(
             fail(f"--where {where!r}: {exc}")
     names = [c.strip() for c in columns.split(",") if c.strip()]
     unknown = [c for c in names if c not in table.columns]
-    if unknown:
+    if unknown and len(table.columns):
         fail(f"--columns: unknown column(s) {', '.join(unknown)}; see the README for the schema")
-    table = table[names]
+    table = table[[c for c in names if c in table.columns]]
     if fmt == "csv":
         typer.echo(table.to_csv(index=False), nl=False)
     elif fmt == "json":
@@ -280,24 +316,33 @@ def check_command(
     """Run the suite (or reuse its stored runs) and compare every metric with the baseline.
 
     Exit 0 with a one-line summary when nothing regressed; exit 1 with a table of regressions
-    (a NaN, a missing run, a new failure or a metric outside tolerance) otherwise.
+    (a NaN, a missing run, a new failure or a metric outside tolerance) otherwise; exit 2 before
+    running anything when the baseline is missing or corrupt (a NaN, an infinite or non-numeric
+    value, a missing column).
     """
-    from fallbench.regress import baseline_frame, compare, load_tolerances, read_baseline, write_baseline
+    from fallbench.regress import BaselineError, baseline_frame, compare, load_tolerances, read_baseline, write_baseline
     from fallbench.runner import expand, run_sweep
 
     try:
         limits = load_tolerances(tolerances)
     except (OSError, ValueError) as exc:
         fail(f"{tolerances}: {exc}")
-    table = run_sweep(expand(_load(suite), _policies(policies), _strategies(pre_impact)), results, jobs=jobs, progress=False)
+    points, chosen, strategies = _load(suite), _policies(policies), _strategies(pre_impact)
+    expected = None
+    if not update:  # a missing or corrupt baseline is bad input: say so before running anything
+        if not baseline.exists():
+            fail(f"{baseline}: no baseline (create it with `fallbench check --update`)")
+        try:
+            expected = read_baseline(baseline, limits)
+        except BaselineError as exc:
+            fail(str(exc))
+    table = run_sweep(expand(points, chosen, strategies), results, jobs=jobs, progress=False)
     now = baseline_frame(table, limits)
     if update:
         write_baseline(now, baseline)
         typer.echo(f"baseline updated: {baseline} ({len(now)} cases, {len(limits)} metrics)")
         return
-    if not baseline.exists():
-        fail(f"{baseline}: no baseline (create it with `fallbench check --update`)")
-    regressions = compare(read_baseline(baseline), now, limits)
+    regressions = compare(expected, now, limits)
     if regressions:
         typer.echo(f"{'case':<40} {'metric':<24} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
         for r in regressions:

@@ -1,28 +1,55 @@
-"""Results store: one folder per run, written atomically, and a consolidated metrics table.
+"""Results store: one folder per run, written atomically, and a consolidated metrics table in parts.
 
 results/runs/<run_id>/{spec.yaml, metrics.parquet, timeseries.parquet} is written into a temporary
 folder, fsynced, then renamed: a run folder is either complete or absent, so an interrupted sweep
-resumes by skipping the folders that exist. results/metrics.parquet is rebuilt from the folders.
+resumes by skipping the folders that exist.
+
+results/metrics/part-*.parquet hold every run's metric row, each run in exactly one part. A
+consolidation appends one part with the runs not yet in any part (it reads only their folders:
+O(new runs)), then merges parts size-tiered, FANOUT parts of a tier into one of the next tier,
+so a store of N runs has O(log N) parts and each row is rewritten O(log N) times, and parts of
+MAX_PART_ROWS rows or more are never rewritten. A merge is journalled (_merge.json) before it
+renames anything, so an interrupted one is finished by the next consolidation or read and a row is
+never seen twice. results/metrics/_common_metadata holds the schema of all parts together.
+
+Queries go through DuckDB (`query`, `load_metrics`): it reads the parts with projection and
+predicate push-down (row-group statistics; parts are sorted by robot, scenario, pre_impact, policy)
+and answers SQL, for `fallbench results --sql`.
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import io
+import json
 import os
 import shutil
+import time
 import uuid
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
-from ruamel.yaml import YAML
+from typing import TYPE_CHECKING, Any, Iterator
 
 from fallbench.scenario import canonical_json
 
+if TYPE_CHECKING:  # pandas, pyarrow and DuckDB load only when the store is used (start-up time)
+    import pandas as pd
+    import pyarrow as pa
+
 SCHEMA_VERSION = 1
 RUNS = "runs"
-METRICS = "metrics.parquet"
+METRICS = "metrics.parquet"  # one run's row, in its folder
+TABLE = "metrics"  # folder of the consolidated parts
+LEGACY_TABLE = "metrics.parquet"  # results/metrics.parquet, rebuilt whole by older versions
+COMMON_METADATA = "_common_metadata"
+JOURNAL = "_merge.json"
+LOCK = "_lock"
+FANOUT = 8
+MAX_PART_ROWS = FANOUT**5  # 32,768 rows: bounds the rows one consolidation may rewrite
+ROW_GROUP_ROWS = 4096
+SORT_KEYS = ("robot", "scenario", "pre_impact", "policy", "run_id")
+FILTER_KEYS = ("scenario", "policy", "pre_impact", "robot")
 
 
 def run_id(resolved_spec: dict[str, Any]) -> str:
@@ -52,6 +79,9 @@ def _parquet_bytes(frame: pd.DataFrame) -> bytes:
 
 def write_run(results: Path, rid: str, spec: dict[str, Any], metrics: dict[str, Any], series: pd.DataFrame | None) -> None:
     """Write one run's folder atomically; a run already stored is left as it is."""
+    import pandas as pd
+    from ruamel.yaml import YAML
+
     final = run_dir(results, rid)
     if final.exists():
         return
@@ -76,30 +106,274 @@ def write_run(results: Path, rid: str, spec: dict[str, Any], metrics: dict[str, 
             shutil.rmtree(tmp, ignore_errors=True)
 
 
-def read_run_metrics(results: Path) -> pd.DataFrame:
-    """All stored runs' metric rows (leftover temporary folders are ignored)."""
-    files = sorted((results / RUNS).glob("*/" + METRICS)) if (results / RUNS).exists() else []
-    frames = [pd.read_parquet(f) for f in files if not f.parent.name.startswith(".tmp-")]
-    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+# ---------------------------------------------------------------- consolidated parts
+
+@contextmanager
+def _locked(table: Path, exclusive: bool) -> Iterator[None]:
+    """One consolidation at a time; readers wait for it (fcntl locks die with their process)."""
+    with open(table / LOCK, "a+") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
-def consolidate(results: Path) -> pd.DataFrame:
-    """Rebuild results/metrics.parquet from the run folders, atomically."""
-    table = read_run_metrics(results)
-    if not table.empty:
-        table = table.sort_values("run_id").reset_index(drop=True)
-    tmp = results / f".{METRICS}.{uuid.uuid4().hex[:8]}"
-    _fsync_write(tmp, _parquet_bytes(table))
-    os.replace(tmp, results / METRICS)
-    return table
+def _parts(table: Path) -> list[Path]:
+    """Live parts, oldest first (names start with a nanosecond time stamp)."""
+    return sorted(table.glob("part-*.parquet"))
 
 
-def load_metrics(results: Path) -> pd.DataFrame:
-    path = results / METRICS
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no results store here (run `fallbench run sweep` first)")
-    return pd.read_parquet(path)
+def _write_table(path: Path, data: pa.Table) -> None:
+    """Write, fsync, rename: a reader sees the whole part or none of it."""
+    import pyarrow.parquet as pq
+
+    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}.tmp"
+    with open(tmp, "wb") as handle:
+        pq.write_table(data, handle, row_group_size=ROW_GROUP_ROWS)
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(tmp, path)
+
+
+def _new_part_path(table: Path) -> Path:
+    return table / f"part-{time.time_ns():020d}-{uuid.uuid4().hex[:8]}.parquet"
+
+
+def _recover(table: Path) -> None:
+    """Finish a merge interrupted after its journal was written; drop stray temporary files."""
+    journal = table / JOURNAL
+    if journal.exists():
+        plan = json.loads(journal.read_text())
+        staged, merged = table / plan["staged"], table / plan["merged"]
+        if staged.exists():
+            os.replace(staged, merged)
+        for name in plan["replaced"]:
+            (table / name).unlink(missing_ok=True)
+        journal.unlink()
+    for stray in table.glob(".*.tmp"):
+        stray.unlink()
+
+
+def _sorted(data: pa.Table) -> pa.Table:
+    keys = [(k, "ascending") for k in SORT_KEYS if k in data.column_names]
+    return data.sort_by(keys).replace_schema_metadata(None)
+
+
+def _concat(tables: list[pa.Table]) -> pa.Table:
+    import pyarrow as pa
+
+    return pa.concat_tables([t.replace_schema_metadata(None) for t in tables], promote_options="permissive")
+
+
+def _store_schema(table: Path) -> pa.Schema | None:
+    import pyarrow.parquet as pq
+
+    path = table / COMMON_METADATA
+    return pq.read_schema(path) if path.exists() else None
+
+
+def _conform(data: pa.Table, schema: pa.Schema | None) -> pa.Table:
+    """Columns that are all null in this batch take the store's type for them, so that every
+    part of the store agrees on each column's type (pandas and polars read the folder directly)."""
+    import pyarrow as pa
+
+    if schema is None:
+        return data
+    for i, field in enumerate(data.schema):
+        if pa.types.is_null(field.type) and field.name in schema.names:
+            data = data.set_column(i, field.name, pa.nulls(len(data), schema.field(field.name).type))
+    return data
+
+
+def _write_common_metadata(table: Path, parts: list[Path]) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = pa.unify_schemas([pq.read_schema(p).remove_metadata() for p in parts], promote_options="permissive")
+    tmp = table / f".{COMMON_METADATA}.{uuid.uuid4().hex[:8]}.tmp"
+    pq.write_metadata(schema, tmp)
+    os.replace(tmp, table / COMMON_METADATA)
+
+
+def _stored_ids(parts: list[Path]) -> set[str]:
+    import pyarrow.parquet as pq
+
+    return {rid for part in parts for rid in pq.read_table(part, columns=["run_id"]).column(0).to_pylist()}
+
+
+def _run_names(results: Path) -> list[str]:
+    """Names of the complete run folders (one directory listing; nothing inside them is read)."""
+    if not (results / RUNS).exists():
+        return []
+    with os.scandir(results / RUNS) as entries:
+        return [e.name for e in entries if not e.name.startswith(".") and e.is_dir()]
+
+
+def _tier(rows: int) -> int:
+    tier = 0
+    while rows >= FANOUT ** (tier + 1):
+        tier += 1
+    return tier
+
+
+def _merge(table: Path, group: list[Path]) -> None:
+    """Replace `group` by one part, journalled so that an interruption never leaves a row twice."""
+    import pyarrow.parquet as pq
+
+    merged = _new_part_path(table)
+    staged = table / f".{merged.name}.staged.tmp"
+    data = _sorted(_concat([pq.read_table(p) for p in group]))
+    with open(staged, "wb") as handle:
+        pq.write_table(data, handle, row_group_size=ROW_GROUP_ROWS)
+        handle.flush()
+        os.fsync(handle.fileno())
+    plan = {"staged": staged.name, "merged": merged.name, "replaced": [p.name for p in group]}
+    journal_tmp = table / f".{JOURNAL}.tmp"
+    _fsync_write(journal_tmp, json.dumps(plan).encode())
+    os.replace(journal_tmp, table / JOURNAL)
+    _recover(table)  # the same steps a later process takes after a crash
+
+
+def _compact(table: Path) -> None:
+    """Size-tiered merging: FANOUT parts of one tier become one part of a higher tier."""
+    import pyarrow.parquet as pq
+
+    while True:
+        tiers: dict[int, list[Path]] = {}
+        for part in _parts(table):
+            rows = pq.read_metadata(part).num_rows
+            if rows < MAX_PART_ROWS:
+                tiers.setdefault(_tier(rows), []).append(part)
+        full = next((group for _, group in sorted(tiers.items()) if len(group) >= FANOUT), None)
+        if full is None:
+            return
+        _merge(table, full)
+
+
+def consolidate(results: Path, full: bool = False) -> int:
+    """Add the stored runs that no part holds yet as one new part (or, with `full`, rebuild every
+    part from the run folders); returns the number of rows added."""
+    import pyarrow.parquet as pq
+
+    table = results / TABLE
+    table.mkdir(parents=True, exist_ok=True)
+    with _locked(table, exclusive=True):
+        _recover(table)
+        if full:
+            for part in _parts(table):
+                part.unlink()
+            (table / COMMON_METADATA).unlink(missing_ok=True)
+        stored = _stored_ids(_parts(table))
+        new = sorted(set(_run_names(results)) - stored)
+        if new:
+            _add_part(table, _concat([pq.read_table(run_dir(results, rid) / METRICS) for rid in new]))
+        (results / LEGACY_TABLE).unlink(missing_ok=True)  # the single-file table of older versions, now stale
+    return len(new)
+
+
+def _add_part(table: Path, rows: pa.Table) -> None:
+    _write_table(_new_part_path(table), _sorted(_conform(rows, _store_schema(table))))
+    _compact(table)
+    _write_common_metadata(table, _parts(table))
+
+
+def add_rows(results: Path, rows: pa.Table) -> None:
+    """Append metric rows as one part (for rows whose run folders exist or are not kept, e.g. the
+    benchmark's synthetic store); `consolidate` is the way for stored runs."""
+    table = results / TABLE
+    table.mkdir(parents=True, exist_ok=True)
+    with _locked(table, exclusive=True):
+        _recover(table)
+        _add_part(table, rows)
+
+
+# ---------------------------------------------------------------- queries (DuckDB)
+
+def _quote(name: str) -> str:
+    return '"' + name.replace('"', '""') + '"'
+
+
+def _sql_string(text: str) -> str:
+    return "'" + text.replace("'", "''") + "'"
+
+
+@contextmanager
+def connect(results: Path) -> Iterator[Any]:
+    """A DuckDB connection with the view `runs` over the store's parts (read under a shared lock)."""
+    import duckdb
+
+    table = results / TABLE
+    if not table.is_dir():
+        raise FileNotFoundError(f"{table}: no results store here (run `fallbench run sweep` first)")
+    with _locked(table, exclusive=False):
+        parts = _parts(table)
+        connection = duckdb.connect()
+        try:
+            if parts:
+                files = ", ".join(_sql_string(str(p)) for p in parts)
+                connection.execute(f"CREATE VIEW runs AS SELECT * FROM read_parquet([{files}], union_by_name = true)")
+            yield connection
+        finally:
+            connection.close()
+
+
+def _frame(relation: Any) -> pd.DataFrame:
+    """DuckDB result as pandas, through Arrow: the same dtypes as pandas.read_parquet gives."""
+    return relation.to_arrow_table().to_pandas()
+
+
+def query(results: Path, sql: str) -> pd.DataFrame:
+    """Run SQL on the view `runs` (one row per stored run); a bad statement raises ValueError."""
+    import duckdb
+
+    with connect(results) as connection:
+        if not _has_runs(connection):
+            raise FileNotFoundError(f"{results / TABLE}: the results store has no runs")
+        try:
+            return _frame(connection.sql(sql))
+        except duckdb.Error as exc:
+            raise ValueError(str(exc).splitlines()[0]) from None
+
+
+def _has_runs(connection: Any) -> bool:
+    return bool(connection.execute("SELECT count(*) FROM duckdb_views() WHERE view_name = 'runs'").fetchall()[0][0])
+
+
+def default_robot() -> str:
+    """Runs stored before the `robot` column existed are of the scenario schema's default robot."""
+    from fallbench.scenario import Scenario
+
+    return str(Scenario.model_fields["robot"].default)
+
+
+def load_metrics(results: Path, **filters: list[str] | None) -> pd.DataFrame:
+    """The stored runs' rows, sorted by run id; `scenario`, `policy`, `pre_impact` and `robot`
+    filters (lists of accepted values) are pushed down into the Parquet scan."""
+    import pandas as pd
+
+    unknown = set(filters) - set(FILTER_KEYS)
+    if unknown:
+        raise TypeError(f"unknown filter(s) {sorted(unknown)}; known: {', '.join(FILTER_KEYS)}")
+    with connect(results) as connection:
+        if not _has_runs(connection):
+            return pd.DataFrame()
+        columns = {row[0] for row in connection.execute("DESCRIBE runs").fetchall()}
+        conditions = []
+        for key, values in filters.items():
+            if values is None:
+                continue
+            if key not in columns:  # only `robot` may be absent: older stores hold one robot
+                if key == "robot" and default_robot() in values:
+                    continue
+                conditions.append("false")
+                continue
+            conditions.append(f"{_quote(key)} IN ({', '.join(_sql_string(v) for v in values)})" if values else "false")
+        where = f" WHERE {' AND '.join(conditions)}" if conditions else ""
+        return _frame(connection.sql(f"SELECT * FROM runs{where} ORDER BY run_id"))
 
 
 def load_timeseries(results: Path, rid: str) -> pd.DataFrame:
+    import pandas as pd
+
     return pd.read_parquet(run_dir(results, rid) / "timeseries.parquet")

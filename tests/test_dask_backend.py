@@ -8,6 +8,7 @@ import pandas as pd
 from typer.testing import CliRunner
 
 from fallbench.cli import app
+from fallbench.store import load_metrics
 
 SUITE = """name: drop
 duration: 0.6
@@ -29,8 +30,8 @@ def test_dask_local_cluster_matches_loky_and_resumes(tmp_path: Path) -> None:
     assert _sweep(path, tmp_path / "loky").exit_code == 0
     result = _sweep(path, tmp_path / "dask", "--backend", "dask")
     assert result.exit_code == 0, result.output
-    local = pd.read_parquet(tmp_path / "loky" / "metrics.parquet")[COLUMNS].sort_values("run_id").reset_index(drop=True)
-    dask = pd.read_parquet(tmp_path / "dask" / "metrics.parquet")[COLUMNS].sort_values("run_id").reset_index(drop=True)
+    local = load_metrics(tmp_path / "loky")[COLUMNS].sort_values("run_id").reset_index(drop=True)
+    dask = load_metrics(tmp_path / "dask")[COLUMNS].sort_values("run_id").reset_index(drop=True)
     assert len(dask) == 4
     pd.testing.assert_frame_equal(local, dask)
     again = _sweep(path, tmp_path / "dask", "--backend", "dask")  # everything stored: nothing runs again

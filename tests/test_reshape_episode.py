@@ -47,3 +47,5 @@ def test_reshape_metrics(reshaped: Recording) -> None:
     assert 0 < row["landing_error"] < 2.0  # m from the chosen BIP to the wrist's first contact
     assert row["time_to_first_impact"] == pytest.approx(reshaped.impact_events[0].t - reshaped.fall_time)
     assert row["first_impact_group"] == "hands" and row["first_impact_safe"]
+    assert row["first_impact_prescribed"] and not row["head_before_hands"]  # 000 Sec. IV-C: hands before the buttocks
+    assert np.isnan(row["knees_simultaneous"])

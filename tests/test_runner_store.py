@@ -15,6 +15,7 @@ import pyarrow.parquet as pq
 from typer.testing import CliRunner
 
 from fallbench.cli import app
+from fallbench.store import load_metrics
 
 SMALL = """name: tiny
 duration: 0.6
@@ -22,9 +23,11 @@ initial: {height: 0.3}
 sweep:
   initial.height: [0.1, 0.2, 0.3]
 ---
-name: boom
-duration: 0.2
-push: {force: 1.0e+9, duration: 0.05, start: 0.0}
+name: boom                # the largest push on the lightest body at the coarsest step: diverges after 0.2 s
+duration: 0.3
+physics_dt: 0.01
+control_dt: 0.01
+push: {force: 10000, duration: 0.1, start: 0.0, body: gripper_left_fingertip_1_link}
 """
 DETERMINISTIC = ["imu_peak_z", "imu_peak_norm_5ms", "knee_limit_margin", "torque_ratio_max", "contact_force_peak", "impact_time"]
 
@@ -44,7 +47,7 @@ def test_failures_are_stored_and_strict_exits_nonzero(tmp_path: Path) -> None:
     path = _write(tmp_path)
     result = _sweep(path, tmp_path / "r", 1)
     assert result.exit_code == 0, result.output
-    table = pd.read_parquet(tmp_path / "r" / "metrics.parquet")
+    table = load_metrics(tmp_path / "r")
     assert len(table) == 8 and table.run_id.is_unique
     assert set(table[table.scenario == "boom"].status) == {"diverged"}
     assert set(table[table.scenario == "tiny"].status) == {"ok"}
@@ -57,8 +60,8 @@ def test_same_metrics_with_one_or_two_jobs(tmp_path: Path) -> None:
     path = _write(tmp_path)
     assert _sweep(path, tmp_path / "one", 1).exit_code == 0
     assert _sweep(path, tmp_path / "two", 2).exit_code == 0
-    one = pd.read_parquet(tmp_path / "one" / "metrics.parquet").set_index("run_id").sort_index()
-    two = pd.read_parquet(tmp_path / "two" / "metrics.parquet").set_index("run_id").sort_index()
+    one = load_metrics(tmp_path / "one").set_index("run_id").sort_index()
+    two = load_metrics(tmp_path / "two").set_index("run_id").sort_index()
     ok = one.status == "ok"
     pd.testing.assert_frame_equal(one.loc[ok, DETERMINISTIC], two.loc[ok, DETERMINISTIC])
 
@@ -92,7 +95,7 @@ def test_killed_sweep_resumes_without_duplicates(tmp_path: Path) -> None:
         result = CliRunner().invoke(app, ["run", "sweep", str(path), "--results", str(results), "--jobs", "1",
                                           "--policies", "stiff,oneshot,zero", "--pre-impact", "none", "--reports", str(results / "rep")])
         assert result.exit_code == 0, result.output
-        table = pd.read_parquet(results / "metrics.parquet")
+        table = load_metrics(results)
         assert len(table) == 12 and table.run_id.is_unique
         assert done_before <= set(table.run_id)
 

@@ -13,12 +13,15 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
-from scipy.spatial import ConvexHull, Delaunay
 
 from fallbench.robots.description import RobotDescription
+
+if TYPE_CHECKING:  # scipy.spatial takes ~0.2 s to import: only runs that reshape load it
+    from scipy.spatial import Delaunay
 
 SAMPLES = 4000
 SEED = 0
@@ -32,6 +35,8 @@ class ReachPolyhedron:
     def contains(self, offset: np.ndarray) -> bool:
         """Whether `offset` (m, torso frame, from the centroid) lies inside the polyhedron."""
         if self._triangulation is None:
+            from scipy.spatial import Delaunay
+
             self._triangulation = Delaunay(self.vertices)
         return bool(self._triangulation.find_simplex(offset) >= 0)
 
@@ -53,19 +58,21 @@ def sample_wrist_offsets(model: pin.Model, robot: RobotDescription, side: str, s
             q[i] = rng.uniform(model.lowerPositionLimit[i], model.upperPositionLimit[i])
         pin.forwardKinematics(model, data, q)
         pin.updateFramePlacements(model, data)
-        rotation = data.oMf[torso].rotation
+        rotation = robot.torso_frame(data.oMf[torso].rotation)
         offsets[k] = rotation.T @ (data.oMi[wrist].translation - data.oMi[shoulder].translation)
     return offsets
 
 
 def _hull_vertices(points: np.ndarray) -> np.ndarray:
+    from scipy.spatial import ConvexHull
+
     vertices = points[ConvexHull(points).vertices]
     return vertices - vertices.mean(axis=0)
 
 
 def _cache_file(robot: RobotDescription) -> Path:
     root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench"
-    key = hashlib.sha256(robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}".encode()).hexdigest()[:16]
+    key = hashlib.sha256(robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}:{robot.torso_axes}".encode()).hexdigest()[:16]
     return root / f"reach-{robot.name}-{key}.npz"
 
 

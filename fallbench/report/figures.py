@@ -1,17 +1,16 @@
 """Figures of 002 Sec. VI for one scenario point: IMU z (Fig. 6a), right knee (Fig. 6b),
-right-leg pitch torques (Fig. 4) and the adaptive gains K, B (Fig. 5)."""
+right-leg pitch torques (Fig. 4) and the adaptive gains K, B (Fig. 5). `leg` maps "hip", "knee",
+"ankle" to the robot's right-leg pitch joints (RobotDescription.leg_pitch)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import numpy as np
 import pandas as pd
 
 from fallbench.report.style import colour, ordered
-
-RIGHT_LEG_PITCH = {"hip": "leg_right_3_joint", "knee": "leg_right_4_joint", "ankle": "leg_right_5_joint"}
-
 
 def _impact_line(ax, impact: float) -> None:
     if pd.notna(impact):
@@ -47,8 +46,8 @@ def imu_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, 
 
 
 def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits: tuple[float, float], title: str,
-                out: Path, stem: str) -> list[Path]:
-    fig, ax = _policy_lines(series, rows, f"q:{RIGHT_LEG_PITCH['knee']}")
+                out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
+    fig, ax = _policy_lines(series, rows, f"q:{leg['knee']}")
     for limit in knee_limits:
         ax.axhline(limit, color="black", linestyle=":", linewidth=1.0)
     ax.text(0.01, knee_limits[1], " knee limit", va="bottom", transform=ax.get_yaxis_transform())
@@ -58,13 +57,13 @@ def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits
 
 
 def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_limits: dict[str, float], title: str,
-                  out: Path, stem: str) -> list[Path]:
+                  out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
     policies = ordered(series)
     fig, axes = plt.subplots(len(policies), 1, figsize=(7, 2.2 * len(policies)), sharex=True, squeeze=False)
     styles = {"hip": "-", "knee": "--", "ankle": ":"}
     for ax, policy in zip(axes[:, 0], policies):
         ts = series[policy]
-        for part, joint in RIGHT_LEG_PITCH.items():
+        for part, joint in leg.items():
             ax.plot(ts.t, ts[f"tau:{joint}"], color=colour(policy), linestyle=styles[part], label=f"{part} pitch")
             limit = torque_limits[joint]
             ax.axhline(limit, color="grey", linestyle="--", linewidth=0.6)
@@ -78,18 +77,26 @@ def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_li
     return _save(fig, out, stem)
 
 
-def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str) -> list[Path]:
-    fig, (ax_k, ax_b) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
+    """K and B of the leg's pitch joints, and the knee's velocity (from its recorded angle): 002 Fig. 5
+    discusses B against the sign of the knee velocity."""
+    fig, (ax_k, ax_b, ax_v) = plt.subplots(3, 1, figsize=(7, 6.5), sharex=True)
     styles = {"hip": "-", "knee": "--", "ankle": ":"}
-    for part, joint in RIGHT_LEG_PITCH.items():
+    for part, joint in leg.items():
         ax_k.plot(ts.t, ts[f"K:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
         ax_b.plot(ts.t, ts[f"B:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
-    for ax in (ax_k, ax_b):
+    knee = f"q:{leg['knee']}"
+    if knee in ts:
+        t = ts.t.to_numpy(dtype=float)
+        ax_v.plot(t, np.gradient(ts[knee].to_numpy(dtype=float), t), color="black", linestyle="--", linewidth=1.0)
+        ax_v.axhline(0.0, color="grey", linewidth=0.6)
+    for ax in (ax_k, ax_b, ax_v):
         _impact_line(ax, impact)
         ax.grid(alpha=0.3)
         if pd.notna(impact):
             ax.set_xlim(max(impact - 0.05, 0), ts.t.max())
     ax_k.set(ylabel="stiffness K (Nm/rad)", title=f"{title}: adaptive_qp gains, right leg (cf. 002 Fig. 5)")
-    ax_b.set(ylabel="damping B (Nms/rad)", xlabel="time (s)")
+    ax_b.set(ylabel="damping B (Nms/rad)")
+    ax_v.set(ylabel="knee velocity (rad/s)", xlabel="time (s)")
     ax_k.legend(fontsize=8)
     return _save(fig, out, stem)
