@@ -11,6 +11,7 @@ from tqdm import tqdm
 
 from fallbench import store
 from fallbench.report.claims import claims_table
+from fallbench.report.direction import direction_report
 from fallbench.report.preimpact import preimpact_report
 from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torque_figure
 from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
@@ -66,13 +67,15 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     swept = sensitivity_runs(runs)
     sensitivity_paths = sensitivity_figure(swept, out)
     sensitivity = sensitivity_table(swept) if len(swept) else pd.DataFrame()
+    direction_paths, direction_tables = direction_report(runs, results, out)
+    pre_paths, pre_tables = pre_paths + direction_paths, pre_tables | direction_tables
     medians = median_table(runs)
     claims = claims_table(runs)
     failed = runs[runs.status != "ok"][["point", "policy", "status", "error"]]
 
     summary = ["# fallbench report", "", f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.", "",
                "## Claims of 002 Sec. VI", "", claims.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
-               "## Pre-impact strategies (none vs reshape)", ""]
+               "## Pre-impact strategies (none vs reshape, none vs direction)", ""]
     for title, table in pre_tables.items():
         summary += [f"### {title}", "", table.to_markdown(index=False) if len(table) else "(no runs)", ""]
     if len(sensitivity):
@@ -88,7 +91,7 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
             f"{len(failed)} failed or diverged.</p>", "<h2>Claims of 002 Sec. VI</h2>",
             claims.to_html(index=False) if len(claims) else "<p>no drop runs</p>",
-            "<h2>Pre-impact strategies (none vs reshape)</h2>"]
+            "<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>"]
     for title, table in pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", table.to_html(index=False) if len(table) else "<p>no runs</p>"]
     body += [_img(p) for p in pre_paths if p.suffix == ".png"]

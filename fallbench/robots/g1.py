@@ -97,6 +97,7 @@ def g1() -> RobotDescription:
         imu_body="imu_in_pelvis",
         gain_groups=G1_GAINS,
         body_groups=G1_BODY_GROUPS,
+        feet={side: f"{side}_ankle_roll_link" for side in SIDES},
         legs={side: tuple(f"{side}_{j}_joint" for j in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch",
                                                         "ankle_roll")) for side in SIDES},
         arms={side: Arm(f"{side}_shoulder_pitch_joint", f"{side}_elbow_joint", f"{side}_wrist_yaw_joint",

@@ -1,5 +1,6 @@
-"""The support polygon: the feet's sole rectangles on the ground, their convex hull, and the
-point of its boundary nearest a given point (the pivot the robot tips about)."""
+"""The support polygon of a candidate: the feet's soles on the ground, their convex hull
+(`events.support_polygon`), and the point of its boundary nearest a given point (the pivot the
+robot tips about)."""
 
 from __future__ import annotations
 
@@ -8,45 +9,27 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from fallbench.events import signed_distance, support_polygon
+
+UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+
 
 def sole_corners(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.ndarray:
-    """(4, 2) ground projection of the bottom face of the foot body's box geom, m, world."""
+    """(k, 2) ground-plane hull of the foot body's collision geometry (its geoms' bounding-box
+    corners), m, world: the sole when the foot is flat."""
     body_id = model.body(body).id
-    box = next(g for g in range(model.ngeom) if model.geom_bodyid[g] == body_id and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX)
-    half = model.geom_size[box]
-    signs = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], dtype=float)
-    local = np.column_stack([signs * half[:2], -half[2] * np.ones(4)])
-    corners = local @ data.geom_xmat[box].reshape(3, 3).T + data.geom_xpos[box]
-    return corners[:, :2]
-
-
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise hull of 2-D points (monotone chain), (k, 2)."""
-    pts = sorted(map(tuple, np.asarray(points, dtype=float)))
-    if len(pts) <= 2:
-        return np.array(pts)
-
-    def half(seq: list[tuple[float, float]]) -> list[tuple[float, float]]:
-        chain: list[tuple[float, float]] = []
-        for p in seq:
-            while len(chain) >= 2 and _cross(chain[-2], chain[-1], p) <= 0:
-                chain.pop()
-            chain.append(p)
-        return chain
-
-    lower, upper = half(pts), half(pts[::-1])
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def _cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    geoms = np.flatnonzero((model.geom_bodyid == body_id) & (model.geom_contype > 0))
+    corners = []
+    for geom in geoms:
+        centre, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
+        local = centre + UNIT_CORNERS * half
+        corners.append(local @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom])
+    return support_polygon(np.concatenate(corners)[:, :2])
 
 
 def contains(polygon: np.ndarray, point: np.ndarray) -> bool:
     """Whether a point lies inside a counter-clockwise convex polygon (boundary included)."""
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    rel = point[:2] - polygon
-    return bool(np.all(edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0] >= -1e-12))
+    return signed_distance(point, polygon) <= 0.0
 
 
 @dataclass(frozen=True)
