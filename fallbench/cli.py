@@ -107,7 +107,7 @@ def run_sweep_command(
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
     strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
     progress: bool = typer.Option(True, help="Show a progress bar."),
-    robot: Optional[str] = typer.Option(None, help="Run every file on this robot (talos, g1), replacing the files' `robot` and any sweep over robots."),
+    robot: Optional[str] = typer.Option(None, help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see the README)."),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -165,7 +165,9 @@ def validate_command(files: list[Path] = typer.Argument(..., help="Scenario YAML
     """Check scenario files completely (schema, sweep points, robot, obstacles) without running them."""
     for file in files:
         points = _load([file])
-        typer.echo(f"{file}: ok, {len(points)} points")
+        robots = sorted({p.scenario.robot for p in points})
+        defaulted = any("robot" not in p.scenario.model_fields_set for p in points)
+        typer.echo(f"{file}: ok, {len(points)} points, robot {', '.join(robots)}" + (" (default: no `robot` key)" if defaulted else ""))
 
 
 @scenarios_app.command("export")

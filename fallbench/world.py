@@ -169,7 +169,7 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
                        ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL)):
         sensor = spec.add_sensor()
         sensor.name, sensor.type = name, kind
-        # XBODY: the body's own frame (BODY would be its inertial frame, rotated on TALOS's waist)
+        # XBODY: the body's own frame (BODY would be its inertial frame, which a URDF may rotate)
         sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_XBODY, robot.root_body
 
     # whole-robot CoM and its velocity, for the capture point (computed in C inside the step)

@@ -14,6 +14,7 @@ from fallbench.report.claims import claims_table
 from fallbench.report.direction import direction_report
 from fallbench.report.preimpact import preimpact_report
 from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torque_figure
+from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
 from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
 from fallbench.report.grouping import with_robot
 
@@ -63,6 +64,9 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     figures = paper_figures(runs, results, out, progress)
     sweep_paths = distribution_figure(runs[runs.status == "ok"], out) + parameter_figures(runs[runs.status == "ok"], out)
     pre_paths, pre_tables = preimpact_report(runs, results, out)
+    swept = sensitivity_runs(runs)
+    sensitivity_paths = sensitivity_figure(swept, out)
+    sensitivity = sensitivity_table(swept) if len(swept) else pd.DataFrame()
     direction_paths, direction_tables = direction_report(runs, results, out)
     pre_paths, pre_tables = pre_paths + direction_paths, pre_tables | direction_tables
     medians = median_table(runs)
@@ -74,11 +78,14 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
                "## Pre-impact strategies (none vs reshape, none vs direction)", ""]
     for title, table in pre_tables.items():
         summary += [f"### {title}", "", table.to_markdown(index=False) if len(table) else "(no runs)", ""]
+    if len(sensitivity):
+        summary += ["## Sensitivity to the baseline stiffness (medians per gain scale)", "",
+                    sensitivity.round(3).to_markdown(index=False), ""]
     summary += ["## Medians per scenario, strategy and policy", "", medians.round(3).to_markdown(), ""]
     if len(failed):
         summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
     summary += ["## Files", ""] + [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
-    summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths if p.suffix == ".png"]
+    summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths + sensitivity_paths if p.suffix == ".png"]
     (out / "summary.md").write_text("\n".join(summary) + "\n")
 
     body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
@@ -88,6 +95,9 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     for title, table in pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", table.to_html(index=False) if len(table) else "<p>no runs</p>"]
     body += [_img(p) for p in pre_paths if p.suffix == ".png"]
+    if len(sensitivity):
+        body += ["<h2>Sensitivity to the baseline stiffness</h2>", sensitivity.round(3).to_html(index=False)]
+        body += [_img(p) for p in sensitivity_paths if p.suffix == ".png"]
     body += ["<h2>Medians per scenario, strategy and policy</h2>", medians.round(3).to_html(),
             "<h2>Sweep comparisons</h2>"] + [_img(p) for p in sweep_paths if p.suffix == ".png"]
     for point, paths in figures.items():
@@ -99,4 +109,4 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
             "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px}</style></head><body>"
             + "\n".join(body) + "</body></html>")
     (out / "index.html").write_text(page)
-    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths + pre_paths
+    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths + pre_paths + sensitivity_paths

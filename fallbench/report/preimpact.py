@@ -22,7 +22,7 @@ SHORT_LABELS = {"front": "front", "back": "back", "side": "side", "front diagona
 
 
 def push_label(direction: float) -> str:
-    """The fall a push from half-sitting starts (robot facing +x): front, back, side or diagonal."""
+    """The fall a push from the nominal stance starts (robot facing +x): front, back, side or diagonal."""
     angle = direction % 360
     return {0: "front", 180: "back", 90: "side", 270: "side"}.get(angle, "front diagonal" if angle < 90 or angle > 270 else "back diagonal")
 
@@ -87,7 +87,7 @@ def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
         ax.set(xlabel="push direction (deg, 0 = robot forward)", title=title)
         ax.grid(alpha=0.3, axis="y")
     fig.legend(*axes[0].get_legend_handles_labels(), title="pre-impact", loc="upper right", ncol=2, fontsize=8)
-    fig.suptitle(f"Pushes from half-sitting: none vs reshape ({len(pushes)} runs that fell, all gain policies)")
+    fig.suptitle(f"Pushes from the nominal stance: none vs reshape ({len(pushes)} runs that fell, all gain policies)")
     return _save(fig, out, "preimpact_first_impact")
 
 
