@@ -15,7 +15,9 @@ import pandas as pd
 
 from fallbench.control.fall_direction import fall_class, horizontal_unit
 from fallbench.episode import Recording
+from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
 from fallbench.events import METHODS
+from fallbench.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
@@ -160,6 +162,10 @@ def impact_metrics(rec: Recording) -> dict[str, object]:
         row[f"landing_error_{side}"] = errors.get(side, float("nan"))
     row["landing_error"] = float(np.mean(list(errors.values()))) if errors else float("nan")
     row["fall_direction_deg"], row["fall_class"] = fall_class_at_impact(rec)
+    landing = touches(rec.world, rec.contact_times)
+    row["first_impact_prescribed"] = first_impact_prescribed(landing, str(row["fall_class"]))
+    row["knees_simultaneous"] = knees_simultaneous(landing)
+    row["head_before_hands"] = head_before_hands(landing)
     return row
 
 
@@ -212,6 +218,11 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row.update(rec.policy_stats)
     if rec.strategy is not None:
         row.update(rec.strategy.metrics(rec))
+    if scenario.obstacles:  # 004's outcome among objects, for every strategy
+        origin = row.get("control_trigger_time", rec.fall_time)
+        row.update(obstacle_metrics(rec, origin if origin == origin else rec.fall_time))
+        if "predicted_fall_direction_deg" in row:
+            row["fall_direction_error_deg"] = direction_error_deg(row["predicted_fall_direction_deg"], row["actual_fall_direction_deg"])
     row["sim_steps"] = int(rec.steps)
     row["sim_time"] = float(rec.steps * dt)
     return row
@@ -230,6 +241,9 @@ def timeseries(rec: Recording) -> pd.DataFrame:
         columns[f"tau:{joint}"] = rec.actuator_force[:, j]
     for group, force in group_forces(rec).items():
         columns[f"force:{group}"] = force
+    if rec.scenario.obstacles:  # for the top-down plots of falls among objects (004)
+        com = com_path(rec)
+        columns.update({"com_x": com[:, 0], "com_y": com[:, 1], "com_z": com[:, 2]})
     legs = set(world.robot.leg_joints)
     for j, joint in enumerate(world.joint_names):
         if joint in legs:

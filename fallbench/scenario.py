@@ -8,56 +8,79 @@ sweep points, robot names, obstacles against the robot's start pose) before anyt
 from __future__ import annotations
 
 import copy
+import datetime
 import hashlib
 import itertools
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from ruamel.yaml import YAML
-from ruamel.yaml.comments import CommentedMap, CommentedSeq
-from ruamel.yaml.error import MarkedYAMLError
+from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
+from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from fallbench.robots import DEFAULT_ROBOT, ROBOTS, get_robot
 from fallbench.robots.description import DEFAULT_POSTURE
 
-PositiveFloat = Annotated[float, Field(gt=0)]
-NonNegativeFloat = Annotated[float, Field(ge=0)]
+# Every number of a scenario is finite (Strict's allow_inf_nan=False) and within a documented
+# range (README, "Ranges"): give each new numeric field bounds (test_scenario_ranges checks that
+# every numeric field of the schema has a lower and an upper one).
+MAX_STEPS_PER_RUN = 200_000  # physics steps (duration / physics_dt) of one run: ~10-15 s of wall time
+MAX_POINTS_PER_FILE = 10_000  # sweep points x seeds of one scenario file
+MAX_FILE_BYTES = 128 << 10  # 128 KiB: a scenario file is a page or two of YAML (parsing 128 KiB takes ~1 s)
+MAX_NESTING = 16  # levels of YAML mappings and lists
+MAX_TEXT = 200  # characters of a name
+
+Seconds = Annotated[float, Field(gt=0, le=60)]  # durations, s
+Time = Annotated[float, Field(ge=0, le=60)]  # instants, s
+Degrees = Annotated[float, Field(ge=-360, le=360)]
+Position = Annotated[float, Field(ge=-20, le=20)]  # m: the floor is 40 m x 40 m
+Size = Annotated[float, Field(gt=0, le=10)]  # m
+Name = Annotated[str, Field(min_length=1, max_length=MAX_TEXT)]
+
+
+class FieldProblem(ValueError):
+    """A problem found by a model validator that belongs to one field (for the error's key and line)."""
+
+    def __init__(self, key: str, reason: str) -> None:
+        super().__init__(reason)
+        self.key = key
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Initial(Strict):
-    posture: str = DEFAULT_POSTURE  # a posture of the robot; every robot has `default`, its nominal stance
-    height: NonNegativeFloat = 0.0  # m between the feet and the floor at t = 0
-    joints: dict[str, float] = {}  # rad, overrides of the posture
+    posture: Name = DEFAULT_POSTURE  # a posture of the robot; every robot has `default`, its nominal stance
+    height: Annotated[float, Field(ge=0, le=10)] = 0.0  # m between the feet and the floor at t = 0
+    joints: dict[Name, Annotated[float, Field(ge=-6.3, le=6.3)]] = {}  # rad, overrides of the posture
 
 
 class Push(Strict):
-    force: NonNegativeFloat  # N
-    direction: float = 0.0  # deg in the ground plane; 0 = robot forward, 90 = robot left
-    duration: PositiveFloat = 0.2  # s
-    start: NonNegativeFloat = 0.1  # s
-    body: str | None = None  # default: the robot's torso
+    force: Annotated[float, Field(ge=0, le=10_000)]  # N
+    direction: Degrees = 0.0  # deg in the ground plane; 0 = robot forward, 90 = robot left
+    duration: Seconds = 0.2  # s
+    start: Time = 0.1  # s
+    body: Name | None = None  # default: the robot's torso
 
 
 class Box(Strict):
     type: Literal["box"]
-    pos: tuple[float, float, float]  # m, centre in the world
-    size: tuple[PositiveFloat, PositiveFloat, PositiveFloat]  # m, full extents
-    yaw: float = 0.0  # deg
+    pos: tuple[Position, Position, Position]  # m, centre in the world
+    size: tuple[Size, Size, Size]  # m, full extents
+    yaw: Degrees = 0.0  # deg
 
 
 class Cylinder(Strict):
     type: Literal["cylinder"]
-    pos: tuple[float, float, float]  # m, centre in the world
-    radius: PositiveFloat  # m
-    height: PositiveFloat  # m
+    pos: tuple[Position, Position, Position]  # m, centre in the world
+    radius: Annotated[float, Field(gt=0, le=5)]  # m
+    height: Size  # m
 
 
 Obstacle = Annotated[Union[Box, Cylinder], Field(discriminator="type")]
@@ -69,10 +92,10 @@ DetectionMethod = Literal["capture_point", "tilt", "freefall"]
 class Detection(Strict):
     # Detectors that may declare the fall; the earliest to fire wins (see fallbench/events.py).
     method: Annotated[tuple[DetectionMethod, ...], Field(min_length=1)] = ("capture_point", "tilt", "freefall")
-    capture_point_margin: float = 0.02  # m the capture point must be outside the feet's support polygon
+    capture_point_margin: Annotated[float, Field(ge=-1, le=1)] = 0.02  # m the capture point must be outside the feet's support polygon
     tilt: Annotated[float, Field(gt=0, lt=90)] = 15.0  # deg of torso tilt that declares a fall (000)
-    freefall: NonNegativeFloat = 3.0  # m/s^2: accelerometer norm below this declares free fall
-    freefall_hold: NonNegativeFloat = 0.02  # s the accelerometer must read free fall
+    freefall: Annotated[float, Field(ge=0, le=9.81)] = 3.0  # m/s^2: accelerometer norm below this declares free fall
+    freefall_hold: Annotated[float, Field(ge=0, le=10)] = 0.02  # s the accelerometer must read free fall
 
     @field_validator("method", mode="before")
     @classmethod
@@ -80,32 +103,61 @@ class Detection(Strict):
         return (value,) if isinstance(value, str) else value
 
 
+MAX_PARAM = 1e6  # |value| of a policy parameter
+
+
+def _param_value(value: Any) -> Any:
+    """A policy parameter: a flag, a name, a finite number within +-MAX_PARAM, or a list of them
+    (each policy checks its own parameters' meaning)."""
+    if isinstance(value, list):
+        if len(value) > 64:
+            raise ValueError(f"must be a list of at most 64 values (got {len(value)})")
+        return [_param_value(v) for v in value]
+    if value is None or isinstance(value, bool):
+        return value
+    if isinstance(value, str):
+        if len(value) > MAX_TEXT:
+            raise ValueError(f"must be a name of at most {MAX_TEXT} characters")
+        return value
+    if isinstance(value, (int, float)):
+        if not math.isfinite(value) or abs(value) > MAX_PARAM:
+            raise ValueError(f"must be a finite number within +-{MAX_PARAM:g}")
+        return value
+    raise ValueError(f"must be a number, a flag, a name or a list of them (got a {type(value).__name__})")
+
+
+ParamValue = Annotated[Any, AfterValidator(_param_value)]
+
+
 class Scenario(Strict):
     """One fully resolved scenario point (no sweep left)."""
 
-    name: str
-    robot: str = DEFAULT_ROBOT
-    duration: PositiveFloat  # s
-    physics_dt: PositiveFloat = 0.001  # s
-    control_dt: PositiveFloat = 0.005  # s
-    friction: PositiveFloat = 0.7
+    name: Name
+    robot: Name = DEFAULT_ROBOT  # default: files written before other robots existed describe TALOS
+    duration: Seconds  # s
+    physics_dt: Annotated[float, Field(ge=1e-4, le=0.01)] = 0.001  # s
+    control_dt: Annotated[float, Field(ge=1e-4, le=0.1)] = 0.005  # s
+    friction: Annotated[float, Field(gt=0, le=5)] = 0.7
     initial: Initial = Initial()
     push: Push | None = None
-    obstacles: list[Obstacle] = []
+    obstacles: Annotated[list[Obstacle], Field(max_length=64)] = []
     detection: Detection = Detection()
-    policy_params: dict[str, dict[str, Any]] = {}  # policy (or `reshape`) name -> parameter overrides
-    pre_impact: tuple[str, ...] | None = None  # pins the strategies swept for this scenario (names checked in world.check_scenario)
-    seed: Annotated[int, Field(ge=0)] = 0
+    # policy (or strategy) name -> parameter overrides: numbers, flags, names, or lists of them
+    policy_params: dict[Name, dict[Name, ParamValue]] = {}
+    pre_impact: tuple[Name, ...] | None = None  # pins the strategies swept for this scenario (names checked in world.check_scenario)
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
 
     @model_validator(mode="after")
     def _rates(self) -> "Scenario":
         if self.physics_dt > self.control_dt:
-            raise ValueError(
-                f"physics_dt ({self.physics_dt} s) must not exceed control_dt ({self.control_dt} s)"
-            )
+            raise FieldProblem("physics_dt", f"physics_dt ({self.physics_dt} s) must not exceed control_dt ({self.control_dt} s)")
         ratio = self.control_dt / self.physics_dt
         if abs(ratio - round(ratio)) > 1e-9:
-            raise ValueError(f"control_dt ({self.control_dt} s) must be a multiple of physics_dt")
+            raise FieldProblem("control_dt", f"control_dt ({self.control_dt} s) must be a multiple of physics_dt")
+        steps = self.duration / self.physics_dt
+        if steps > MAX_STEPS_PER_RUN:
+            raise FieldProblem("duration", f"duration / physics_dt = {steps:,.0f} physics steps, over the budget of "
+                               f"{MAX_STEPS_PER_RUN:,} per run")
         return self
 
     @property
@@ -116,17 +168,19 @@ class Scenario(Strict):
 class ScenarioFile(Scenario):
     """A scenario file: a base scenario plus sweep, randomisation and seed repetition."""
 
-    randomize: dict[str, tuple[float, float]] = {}
-    sweep: dict[str, list[Any]] = {}
-    seeds: Annotated[int, Field(ge=1)] = 1
-    sizes_for: str | None = None  # robot the push forces and obstacle geometry are written for (scaled on others)
-    per_robot: dict[str, dict[str, Any]] = {}  # robot -> dotted key -> value, applied after the scaling
+    randomize: dict[Name, tuple[Annotated[float, Field(ge=-1e6, le=1e6)], Annotated[float, Field(ge=-1e6, le=1e6)]]] = {}
+    sweep: dict[Name, Annotated[list[Any], Field(max_length=MAX_POINTS_PER_FILE)]] = {}
+    seeds: Annotated[int, Field(ge=1, le=MAX_POINTS_PER_FILE)] = 1
+    layout_yaw: Degrees = 0.0  # deg: turns every obstacle about the world z axis through the origin (the robot)
+    sizes_for: Name | None = None  # robot the push forces and obstacle geometry are written for (scaled on others)
+    per_robot: dict[Name, dict[Name, Any]] = {}  # robot -> dotted key -> value, applied after the scaling
 
 
 class ScenarioError(ValueError):
     """Bad scenario input: carries file, line and key so the CLI prints one clear line."""
 
     def __init__(self, path: Path | str, line: int | None, key: str, reason: str) -> None:
+        key, reason = " ".join(key.split()), " ".join(reason.split())  # always one line
         self.path, self.line, self.key, self.reason = str(path), line, key, reason
         where = f"{self.path}:{line}" if line else self.path
         super().__init__(f"{where}: {key}: {reason}" if key else f"{where}: {reason}")
@@ -169,14 +223,64 @@ def _line_of(doc: Any, loc: tuple[Any, ...]) -> int | None:
     return line
 
 
-def _read_yaml(path: Path) -> list[CommentedMap]:
-    """The YAML documents of a file (several families can share a file, separated by `---`)."""
+def _read_text(path: Path) -> str:
+    """The file as UTF-8 text: not too large, not binary."""
     try:
-        text = path.read_text()
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ScenarioError(path, None, "", f"file too large ({size:,} bytes; a scenario file holds at most {MAX_FILE_BYTES:,})")
+        data = path.read_bytes()
     except OSError as exc:
         raise ScenarioError(path, None, "", f"cannot read file ({exc.strerror})") from None
+    if b"\0" in data:
+        line = data[: data.index(b"\0")].count(b"\n") + 1
+        raise ScenarioError(path, line, "", "binary file (NUL byte): a scenario file is UTF-8 YAML text")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise ScenarioError(path, line, "", f"not UTF-8 text (byte 0x{data[exc.start]:02x}): a scenario file is UTF-8 YAML text") from None
+
+
+PLAIN_SCALARS = (str, int, float, bool, type(None), datetime.date)  # dates: implicit YAML timestamps
+
+
+def _check_tree(path: Path, node: Any, where: tuple[Any, ...] = (), line: int = 1, seen: set[int] | None = None) -> None:
+    """Reject what plain scenario data never needs: tags (`!!python/...`, `!foo`, `!!binary`,
+    `!!set`), aliases of mappings or lists (they multiply nodes), nesting deeper than MAX_NESTING,
+    keys that are not plain scalars."""
+    seen = set() if seen is None else seen
+    key = ".".join(map(str, where))
+    if type(node) in (CommentedMap, CommentedSeq):
+        if node.tag.value is not None:
+            raise ScenarioError(path, line, key, f"YAML tags ({node.tag.value}) are not allowed in scenario files")
+        if id(node) in seen:
+            raise ScenarioError(path, line, key, "YAML aliases (*name) of mappings or lists are not allowed in scenario files: write the value out")
+        seen.add(id(node))
+        if len(where) >= MAX_NESTING:
+            raise ScenarioError(path, line, key, f"nested deeper than {MAX_NESTING} levels")
+        if isinstance(node, CommentedMap):
+            for name, value in node.items():
+                here = node.lc.key(name)[0] + 1
+                if not isinstance(name, PLAIN_SCALARS):
+                    raise ScenarioError(path, here, key, "a key must be a plain name")
+                _check_tree(path, value, where + (name,), here, seen)
+        else:
+            for index, value in enumerate(node):
+                _check_tree(path, value, where + (index,), node.lc.item(index)[0] + 1, seen)
+    elif not isinstance(node, PLAIN_SCALARS) or isinstance(node, TaggedScalar):
+        tag = getattr(node, "tag", None)
+        what = f"YAML tags ({getattr(tag, 'value', tag)})" if tag is not None else f"YAML tags and special types (here a {type(node).__name__})"
+        raise ScenarioError(path, line, key, f"{what} are not allowed in scenario files")
+
+
+def _read_yaml(path: Path) -> list[CommentedMap]:
+    """The YAML documents of a file (several families can share a file, separated by `---`)."""
+    text = _read_text(path)
     try:
         docs = list(YAML(typ="rt").load_all(text))
+    except RecursionError:
+        raise ScenarioError(path, None, "", f"nested far deeper than {MAX_NESTING} levels") from None
     except MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None
@@ -184,6 +288,8 @@ def _read_yaml(path: Path) -> list[CommentedMap]:
         if exc.context and exc.context_mark and exc.problem:
             reason += f" ({exc.context} started at line {exc.context_mark.line + 1})"
         raise ScenarioError(path, line, "", reason) from None
+    except YAMLError as exc:  # the reader's errors (e.g. a control character) carry no mark
+        raise ScenarioError(path, None, "", f"malformed YAML: {exc}") from None
     docs = [doc for doc in docs if doc is not None]
     if not docs:
         raise ScenarioError(path, 1, "", "empty file: expected a scenario mapping")
@@ -191,6 +297,7 @@ def _read_yaml(path: Path) -> list[CommentedMap]:
         if not isinstance(doc, CommentedMap):
             line = doc.lc.line + 1 if hasattr(doc, "lc") else 1
             raise ScenarioError(path, line, "", "a scenario document must be a YAML mapping")
+        _check_tree(path, doc)
     return docs
 
 
@@ -203,16 +310,24 @@ def _plain(node: Any) -> Any:
     return node
 
 
+def _loc(err: Any) -> tuple[Any, ...]:
+    """Where a pydantic error is: its location, without union tags, plus a FieldProblem's field."""
+    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in ("box", "cylinder")))
+    problem = (err.get("ctx") or {}).get("error")
+    return loc + (problem.key,) if isinstance(problem, FieldProblem) else loc
+
+
 def _validation_error(path: Path, doc: Any, exc: ValidationError, line_loc: tuple[Any, ...] = ()) -> ScenarioError:
     err = exc.errors()[0]
-    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in ("box", "cylinder")))
+    loc = _loc(err)
     key = ".".join(str(p) for p in loc) or "(top level)"
     line = _line_of(doc, line_loc or loc) or 1
-    reason = err["msg"]
+    reason = err["msg"].removeprefix("Value error, ")
     if err["type"] == "extra_forbidden":
         reason = "unknown key"
     elif "input" in err and err["type"] not in ("missing",) and not isinstance(err["input"], dict):
-        reason += f" (got {err['input']!r})"
+        got = repr(err["input"])
+        reason += f" (got {got if len(got) <= 60 else got[:57] + '...'})"
     return ScenarioError(path, line, key, reason)
 
 
@@ -258,6 +373,19 @@ def _set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
     node[keys[-1]] = value
 
 
+def _turn_layout(data: dict[str, Any], yaw_deg: float) -> None:
+    """Obstacles turned by `yaw_deg` about the origin: positions rotate, boxes turn with them."""
+    if not yaw_deg or not isinstance(data.get("obstacles"), list):
+        return
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    for obstacle in data["obstacles"]:
+        if isinstance(obstacle, dict) and isinstance(obstacle.get("pos"), list) and len(obstacle["pos"]) == 3:
+            x, y, z = obstacle["pos"]
+            obstacle["pos"] = [c * x - s * y, s * x + c * y, z]
+            if obstacle.get("type") == "box":
+                obstacle["yaw"] = obstacle.get("yaw", 0.0) + yaw_deg
+
+
 def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None = None) -> list[ScenarioPoint]:
     base = _plain(doc)
     for key in ("sweep", "randomize", "seeds", "sizes_for", "per_robot"):
@@ -279,6 +407,10 @@ def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None
                     _set_dotted(data, key, value)
                 except (KeyError, TypeError):
                     raise ScenarioError(path, _line_of(doc, _origin(spec, key)), key, "not a key of the scenario") from None
+            yaw = data.pop("layout_yaw", 0.0)
+            if isinstance(yaw, bool) or not isinstance(yaw, (int, float)):
+                raise ScenarioError(path, _line_of(doc, _origin(spec, "layout_yaw")), "layout_yaw", f"expected degrees (got {yaw!r})")
+            _turn_layout(data, yaw)
             swept.update(_robot_sizes(path, doc, spec, data))
             try:
                 scenario = Scenario.model_validate(data)
@@ -311,7 +443,7 @@ def _robot_sizes(path: Path, doc: CommentedMap, spec: ScenarioFile, data: dict[s
 def _sweep_error(path: Path, doc: CommentedMap, spec: ScenarioFile, swept: dict[str, Any], exc: ValidationError) -> ScenarioError:
     """The error of a swept value, located at the sweep (or randomize) entry that produced it."""
     for err in exc.errors():
-        bad = ".".join(str(p) for p in err["loc"])
+        bad = ".".join(str(p) for p in _loc(err))
         key = next((k for k in swept if bad.startswith(k)), None)
         if key is not None:
             single = ValidationError.from_exception_data(exc.title, [err])  # type: ignore[list-item]
@@ -348,6 +480,10 @@ def _load_document(path: Path, doc: CommentedMap, robot: str | None = None) -> l
         for name in names:
             if name not in ROBOTS:
                 raise ScenarioError(path, _line_of(doc, (key,)), key, f"unknown robot {name!r} (known: {', '.join(sorted(ROBOTS))})")
+    count = math.prod(len(values) for values in spec.sweep.values()) * spec.seeds
+    if count > MAX_POINTS_PER_FILE:
+        raise ScenarioError(path, _line_of(doc, ("sweep",)) or _line_of(doc, ("seeds",)), "sweep",
+                            f"{count:,} points (sweep values x seeds), over the limit of {MAX_POINTS_PER_FILE:,} per file")
     points = _points(path, doc, spec, robot)
     checked: set[str] = set()
     for point in points:

@@ -74,7 +74,8 @@ def test_missing_run_fails(checked) -> None:
 
 def test_new_failure_fails(checked) -> None:
     check, baseline = checked
-    _edit_suite(baseline, SUITE + "push: {force: 1.0e+9, duration: 0.05, start: 0.0}\n")
+    _edit_suite(baseline, SUITE + "physics_dt: 0.01\ncontrol_dt: 0.01\n"
+                "push: {force: 10000, duration: 0.1, start: 0.0, body: gripper_left_fingertip_1_link}\n")
     result = check()
     assert result.exit_code == 1 and "status" in result.output and "diverged" in result.output
 

@@ -5,19 +5,19 @@ from __future__ import annotations
 
 from typing import Any
 
-from fallbench.plugins import load_plugins
+from fallbench.plugins import Registry
 from fallbench.policies.adaptive_qp import AdaptiveQPPolicy
 from fallbench.policies.base import GainPolicy, Observation
 from fallbench.policies.oneshot import OneshotPolicy
 from fallbench.policies.stiff import StiffPolicy
 from fallbench.policies.zero import ZeroPolicy
 
-POLICIES: dict[str, type[GainPolicy]] = {
+POLICIES: dict[str, type[GainPolicy]] = Registry("fallbench.policies", GainPolicy, {
     "stiff": StiffPolicy,
     "oneshot": OneshotPolicy,
     "zero": ZeroPolicy,
     "adaptive_qp": AdaptiveQPPolicy,
-}
+})
 
 
 def make_policy(name: str, world: Any, scenario: Any) -> GainPolicy:
@@ -27,8 +27,5 @@ def make_policy(name: str, world: Any, scenario: Any) -> GainPolicy:
         raise ValueError(f"unknown policy {name!r}; known: {', '.join(POLICIES)}") from None
     return cls(world, scenario)
 
-
-# last: a plugin may import this module
-POLICIES.update(load_plugins("fallbench.policies", GainPolicy, POLICIES))  # type: ignore[arg-type]
 
 __all__ = ["GainPolicy", "Observation", "POLICIES", "make_policy"]

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from fallbench.plugins import load_plugins
+from fallbench.plugins import Registry
 from fallbench.preimpact.base import Strategy
+from fallbench.preimpact.direction.strategy import DirectionStrategy
 from fallbench.preimpact.none import NoStrategy
 from fallbench.preimpact.reshape import ReshapeStrategy
 
-STRATEGIES: dict[str, type[Strategy]] = {"none": NoStrategy, "reshape": ReshapeStrategy}
+STRATEGIES: dict[str, type[Strategy]] = Registry("fallbench.strategies", Strategy, {
+    "none": NoStrategy, "reshape": ReshapeStrategy, "direction": DirectionStrategy})
 
 
 def make_strategy(name: str, world: Any, scenario: Any) -> Strategy:
@@ -20,7 +22,5 @@ def make_strategy(name: str, world: Any, scenario: Any) -> Strategy:
         raise ValueError(f"unknown pre-impact strategy {name!r}; known: {', '.join(STRATEGIES)}") from None
     return cls(world, scenario)
 
-
-STRATEGIES.update(load_plugins("fallbench.strategies", Strategy, STRATEGIES))  # last: plugins may import this module
 
 __all__ = ["STRATEGIES", "Strategy", "make_strategy"]

@@ -11,8 +11,10 @@ from tqdm import tqdm
 
 from fallbench import store
 from fallbench.report.claims import claims_table
+from fallbench.report.direction import direction_report
 from fallbench.report.preimpact import preimpact_report
 from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torque_figure
+from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
 from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
 from fallbench.report.grouping import with_robot
 
@@ -62,29 +64,40 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     figures = paper_figures(runs, results, out, progress)
     sweep_paths = distribution_figure(runs[runs.status == "ok"], out) + parameter_figures(runs[runs.status == "ok"], out)
     pre_paths, pre_tables = preimpact_report(runs, results, out)
+    swept = sensitivity_runs(runs)
+    sensitivity_paths = sensitivity_figure(swept, out)
+    sensitivity = sensitivity_table(swept) if len(swept) else pd.DataFrame()
+    direction_paths, direction_tables = direction_report(runs, results, out)
+    pre_paths, pre_tables = pre_paths + direction_paths, pre_tables | direction_tables
     medians = median_table(runs)
     claims = claims_table(runs)
     failed = runs[runs.status != "ok"][["point", "policy", "status", "error"]]
 
     summary = ["# fallbench report", "", f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.", "",
                "## Claims of 002 Sec. VI", "", claims.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
-               "## Pre-impact strategies (none vs reshape)", ""]
+               "## Pre-impact strategies (none vs reshape, none vs direction)", ""]
     for title, table in pre_tables.items():
         summary += [f"### {title}", "", table.to_markdown(index=False) if len(table) else "(no runs)", ""]
+    if len(sensitivity):
+        summary += ["## Sensitivity to the baseline stiffness (medians per gain scale)", "",
+                    sensitivity.round(3).to_markdown(index=False), ""]
     summary += ["## Medians per scenario, strategy and policy", "", medians.round(3).to_markdown(), ""]
     if len(failed):
         summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
     summary += ["## Files", ""] + [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
-    summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths if p.suffix == ".png"]
+    summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths + sensitivity_paths if p.suffix == ".png"]
     (out / "summary.md").write_text("\n".join(summary) + "\n")
 
     body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
             f"{len(failed)} failed or diverged.</p>", "<h2>Claims of 002 Sec. VI</h2>",
             claims.to_html(index=False) if len(claims) else "<p>no drop runs</p>",
-            "<h2>Pre-impact strategies (none vs reshape)</h2>"]
+            "<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>"]
     for title, table in pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", table.to_html(index=False) if len(table) else "<p>no runs</p>"]
     body += [_img(p) for p in pre_paths if p.suffix == ".png"]
+    if len(sensitivity):
+        body += ["<h2>Sensitivity to the baseline stiffness</h2>", sensitivity.round(3).to_html(index=False)]
+        body += [_img(p) for p in sensitivity_paths if p.suffix == ".png"]
     body += ["<h2>Medians per scenario, strategy and policy</h2>", medians.round(3).to_html(),
             "<h2>Sweep comparisons</h2>"] + [_img(p) for p in sweep_paths if p.suffix == ".png"]
     for point, paths in figures.items():
@@ -96,4 +109,4 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
             "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px}</style></head><body>"
             + "\n".join(body) + "</body></html>")
     (out / "index.html").write_text(page)
-    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths + pre_paths
+    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths + pre_paths + sensitivity_paths

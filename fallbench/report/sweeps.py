@@ -48,7 +48,7 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
     for (robot, scenario), group in runs.groupby(["robot", "scenario"]):
         for param in params:
             values = group[param].dropna()
-            if values.nunique() < 2 or not np.issubdtype(values.dtype, np.number):
+            if values.nunique() < 2 or not pd.api.types.is_numeric_dtype(values):  # string parameters (a forced mode) have no axis
                 continue
             fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
             for ax, metric in zip(axes, ["imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max"]):

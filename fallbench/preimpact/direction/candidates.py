@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fallbench.events import capture_point, support_polygon
 from fallbench.preimpact.direction.geometry import Circle
 from fallbench.preimpact.direction.pendulum import Rollout, rollout
-from fallbench.preimpact.direction.support import contains, convex_hull, nearest_pivot
-from fallbench.preimpact.direction.trigger import capture_point
+from fallbench.preimpact.direction.support import contains, nearest_pivot
 
 
 @dataclass(frozen=True)
@@ -25,7 +25,7 @@ class StepGrid:
     radii: np.ndarray  # m, step lengths from the swing foot's current centre
     headings: np.ndarray  # rad, world
     foot_speed: float  # m/s, mean swing-foot speed
-    min_separation: float  # m between the two feet's centres after the step
+    min_separation: float  # m from the stance foot's centre to the target, across (toward the swing foot's side)
     max_separation: float  # m, the maximum leg spread
 
 
@@ -50,7 +50,6 @@ class FallState:
     com: np.ndarray  # m, (3,)
     velocity: np.ndarray  # m/s, (3,)
     floor_z: float  # m
-    com_height: float  # m, standing CoM height above the floor (for the capture point)
     touchdown_height: float  # m above the floor
 
 
@@ -58,7 +57,7 @@ def _predict(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarra
     """Pendulum rollouts about each polygon's pivot; and whether the capture point is inside it."""
     pivots, edges, inside = [], [], []
     for polygon, com, velocity in zip(polygons, coms, velocities):
-        xi = capture_point(com, velocity, state.com_height)
+        xi = capture_point(com, velocity)
         pivot = nearest_pivot(polygon, xi)
         pivots.append(pivot.point)
         edges.append(np.zeros(2) if pivot.edge is None else pivot.edge)
@@ -72,16 +71,19 @@ def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:
 
 
 def step_targets(soles: dict[str, np.ndarray], swing: str, grid: StepGrid, objects: list[Circle]) -> list[np.ndarray]:
-    """Grid targets for the swing foot's centre within the leg spread and clear of the objects."""
+    """Grid targets for the swing foot's centre within the leg spread, on the swing foot's own side
+    of the stance foot (no crossing of the legs) and clear of the objects."""
     stance = next(s for s in soles if s != swing)
     centre, other = soles[swing].mean(axis=0), soles[stance].mean(axis=0)
-    reach = float(np.linalg.norm(soles[swing][0] - centre))
+    side = (centre - other) / float(np.linalg.norm(centre - other))  # from the stance foot toward the swing foot
+    reach = float(np.max(np.linalg.norm(soles[swing] - centre, axis=1)))
     targets = []
     for r in grid.radii:
         for heading in grid.headings:
             target = centre + r * np.array([math.cos(heading), math.sin(heading)])
-            separation = float(np.linalg.norm(target - other))
-            if grid.min_separation <= separation <= grid.max_separation and clear_of(target, reach, objects):
+            offset = target - other
+            if (float(offset @ side) >= grid.min_separation and float(np.linalg.norm(offset)) <= grid.max_separation
+                    and clear_of(target, reach, objects)):
                 targets.append(target)
     return targets
 
@@ -89,7 +91,7 @@ def step_targets(soles: dict[str, np.ndarray], swing: str, grid: StepGrid, objec
 def evaluate(soles: dict[str, np.ndarray], state: FallState, grid: StepGrid, objects: list[Circle]) -> tuple[list[Candidate], Rollout]:
     """Every candidate with its predicted direction and fall time (scores are set by the caller),
     and No Action's rollout (for plots)."""
-    both = convex_hull(np.vstack(list(soles.values())))
+    both = support_polygon(np.vstack(list(soles.values())))
     fixed = [Candidate("no_action", None, None, both)]
     fixed += [Candidate("lift_leg", side, None, soles[other]) for side, other in (("left", "right"), ("right", "left"))]
     start = np.repeat(state.com[None], len(fixed), axis=0)
@@ -109,7 +111,7 @@ def evaluate(soles: dict[str, np.ndarray], state: FallState, grid: StepGrid, obj
             if travel > deadline:
                 continue
             moved = soles[swing] + (target - soles[swing].mean(axis=0))
-            steps.append(Candidate("take_step", swing, target, convex_hull(np.vstack([soles[stance], moved]))))
+            steps.append(Candidate("take_step", swing, target, support_polygon(np.vstack([soles[stance], moved]))))
             at = min(int(round(travel / no_action.dt)), int(no_action.touchdown_step[0]))
             coms.append(no_action.com[0, at])
             vels.append(no_action.velocity[0, at])

@@ -1,5 +1,6 @@
-"""The support polygon: the feet's sole rectangles on the ground, their convex hull, and the
-point of its boundary nearest a given point (the pivot the robot tips about)."""
+"""The support polygon of a candidate: the feet's soles on the ground, their convex hull
+(`events.support_polygon`), and the point of its boundary nearest a given point (the pivot the
+robot tips about)."""
 
 from __future__ import annotations
 
@@ -8,38 +9,22 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from fallbench.events import support_polygon
+
+UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+
 
 def sole_corners(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.ndarray:
-    """(4, 2) ground projection of the bottom face of the foot body's box geom, m, world."""
+    """(k, 2) ground-plane hull of the foot body's collision geometry (its geoms' bounding-box
+    corners), m, world: the sole when the foot is flat."""
     body_id = model.body(body).id
-    box = next(g for g in range(model.ngeom) if model.geom_bodyid[g] == body_id and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX)
-    half = model.geom_size[box]
-    signs = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], dtype=float)
-    local = np.column_stack([signs * half[:2], -half[2] * np.ones(4)])
-    corners = local @ data.geom_xmat[box].reshape(3, 3).T + data.geom_xpos[box]
-    return corners[:, :2]
-
-
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise hull of 2-D points (monotone chain), (k, 2)."""
-    pts = sorted(map(tuple, np.asarray(points, dtype=float)))
-    if len(pts) <= 2:
-        return np.array(pts)
-
-    def half(seq: list[tuple[float, float]]) -> list[tuple[float, float]]:
-        chain: list[tuple[float, float]] = []
-        for p in seq:
-            while len(chain) >= 2 and _cross(chain[-2], chain[-1], p) <= 0:
-                chain.pop()
-            chain.append(p)
-        return chain
-
-    lower, upper = half(pts), half(pts[::-1])
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def _cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    geoms = np.flatnonzero((model.geom_bodyid == body_id) & (model.geom_contype > 0))
+    corners = []
+    for geom in geoms:
+        centre, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
+        local = centre + UNIT_CORNERS * half
+        corners.append(local @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom])
+    return support_polygon(np.concatenate(corners)[:, :2])
 
 
 def contains(polygon: np.ndarray, point: np.ndarray) -> bool:
@@ -59,15 +44,11 @@ class Pivot:
 
 def nearest_pivot(polygon: np.ndarray, point: np.ndarray, vertex_tolerance: float = 1e-3) -> Pivot:
     """The boundary point nearest `point`; at a vertex when it is within `vertex_tolerance` (m) of one."""
-    best: tuple[float, np.ndarray, np.ndarray | None] | None = None
-    for a, b in zip(polygon, np.roll(polygon, -1, axis=0)):
-        edge = b - a
-        length = float(np.linalg.norm(edge))
-        s = float(np.clip((point[:2] - a) @ edge / length**2, 0.0, 1.0)) if length > 0 else 0.0
-        foot = a + s * edge
-        distance = float(np.linalg.norm(point[:2] - foot))
-        at_vertex = min(s * length, (1 - s) * length) <= vertex_tolerance
-        if best is None or distance < best[0] - 1e-12:
-            best = (distance, foot, None if at_vertex else edge / length)
-    assert best is not None
-    return Pivot(best[1], best[2])
+    starts = polygon
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    lengths = np.linalg.norm(edges, axis=1)
+    s = np.clip(np.einsum("ij,ij->i", point[:2] - starts, edges) / np.maximum(lengths, 1e-12) ** 2, 0.0, 1.0)
+    feet = starts + s[:, None] * edges
+    k = int(np.argmin(np.linalg.norm(point[:2] - feet, axis=1)))
+    at_vertex = min(s[k], 1.0 - s[k]) * lengths[k] <= vertex_tolerance
+    return Pivot(feet[k], None if at_vertex else edges[k] / lengths[k])

@@ -1,6 +1,6 @@
 """The control trigger of 004 Sec. III-D (Fig. 3): control starts once the robot's tipping is
-steady, i.e. the last capture points lie on a straight line, or at a time limit after the fall
-trigger. The capture point is xi = c_xy + c_dot_xy / omega0, omega0 = sqrt(g / z_c) ([19])."""
+steady, i.e. the last capture points (`events.capture_point`) lie on a straight line, or at a
+time limit after the fall trigger."""
 
 from __future__ import annotations
 
@@ -8,13 +8,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-
-GRAVITY = 9.81  # m/s^2
-
-
-def capture_point(com: np.ndarray, com_velocity: np.ndarray, com_height: float) -> np.ndarray:
-    """xi (m, (2,)) of the linear inverted pendulum at CoM height `com_height` (m)."""
-    return com[:2] + com_velocity[:2] / math.sqrt(GRAVITY / com_height)
 
 
 def collinearity(points: np.ndarray) -> tuple[float, float]:
