@@ -12,7 +12,7 @@ import typer
 from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
 
 SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
-           Path("scenarios/clutter.yaml")]
+           Path("scenarios/clutter.yaml"), Path("scenarios/direction.yaml")]
 SUMMARY_COLUMNS = ["imu_peak_z", "knee_limit_margin", "torque_ratio_max", "torque_demand_ratio_max",
                    "joint_limit_hits", "contact_force_peak", "contact_force_peak_head", "contact_force_peak_torso",
                    "first_impact_safe", "landing_error", "fell"]
@@ -30,9 +30,9 @@ def fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
-def _load(files: list[Path]) -> list[ScenarioPoint]:
+def _load(files: list[Path], robot: str | None = None) -> list[ScenarioPoint]:
     try:
-        return load_scenarios(list(files))
+        return load_scenarios(list(files), robot)
     except ScenarioError as exc:
         fail(str(exc))
     raise AssertionError  # unreachable: fail() exits
@@ -53,13 +53,19 @@ def _policies(text: str) -> list[str]:
     return _names(text, POLICIES, "--policies", "policy")
 
 
+def _robot(name: str | None) -> str | None:
+    from fallbench.robots import ROBOTS
+
+    return None if name is None else _names(name, ROBOTS, "--robot", "robot")[0]
+
+
 def _strategies(text: str) -> list[str]:
     from fallbench.preimpact import STRATEGIES
 
     return _names(text, STRATEGIES, "--pre-impact", "strategy")
 
 
-PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape); a scenario's own `pre_impact` list wins."
+PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape, direction, or a plugin's); a scenario's own `pre_impact` list wins."
 
 
 def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> ScenarioPoint:
@@ -91,7 +97,7 @@ def _same(swept: object, text: str) -> bool:
 
 @run_app.command("sweep")
 def run_sweep_command(
-    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle and clutter scenarios)."),
+    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle, clutter and direction scenarios)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."),
@@ -101,6 +107,7 @@ def run_sweep_command(
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
     strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
     progress: bool = typer.Option(True, help="Show a progress bar."),
+    robot: Optional[str] = typer.Option(None, help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see the README)."),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -115,10 +122,10 @@ def run_sweep_command(
         fail("--scheduler needs --backend dask")
     if backend == "dask" and importlib.util.find_spec("distributed") is None:
         fail("--backend dask needs Dask's distributed scheduler: pip install 'fallbench[dask]'")
-    points = _load(files or SHIPPED)
+    points = _load(files or SHIPPED, _robot(robot))
     specs = expand(points, _policies(policies), _strategies(pre_impact))
     table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty(), backend=backend, scheduler=scheduler)
-    keys = ["scenario", "pre_impact", "policy"]
+    keys = ["robot", "scenario", "pre_impact", "policy"]
     summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())
     summary.insert(1, "failed", table[table.status != "ok"].groupby(keys).size().reindex(summary.index, fill_value=0))
@@ -138,7 +145,7 @@ def run_one_command(
     file: Path = typer.Argument(..., help="Scenario YAML file."),
     point: list[str] = typer.Option([], help="Sweep point: an index, or key=value (repeatable)."),
     policy: str = typer.Option("stiff", help="Gain policy."),
-    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none or reshape)."),
+    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none, reshape, direction, or a plugin's)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
 ) -> None:
     """Run one case, store it, and print its metrics."""

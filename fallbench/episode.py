@@ -5,13 +5,20 @@ strategy -> impact detector -> gain policy -> servo references and gains written
 actuators. Everything the metrics need is recorded at the physics rate from MuJoCo's sensors
 (computed in C inside the step).
 
-Without a pre-impact strategy every motor switches to the gain policy at the first impact. With
-one, a motor switches when a body on its chain to the root touches the environment (002 Sec. V,
-last paragraph); the others go on reshaping until the torso or head lands, when all switch.
+Every motor switches to the gain policy at the first impact, unless the pre-impact strategy
+switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
+the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
+lands, when all switch. Contacts the strategy planned (a footstep) are not impacts.
+
+Impacts are watched inside the physics substeps: after fall detection, and until every motor has
+switched, a body touching for the first time (its contact sensor's "found" column) ends the substeps
+and runs a control step at once, so the policy takes over one physics step after first contact
+instead of at the next 5 ms control step. The regular control grid then resumes.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -20,13 +27,16 @@ import mujoco
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import select_motors
-from fallbench.control.model import pinocchio_for
-from fallbench.events import FallDetector, ImpactDetector
+from fallbench.dynamics.model import pinocchio_for
+from fallbench.events import (CapturePointDetector, FallDetector, FreefallDetector, ImpactDetector,
+                              TiltDetector)
 from fallbench.impacts import ImpactEvent, ImpactLog
 from fallbench.policies import GainPolicy, Observation, make_policy
-from fallbench.preimpact import make_strategy
+from fallbench.policies.stiff import gain_scale
+from fallbench.preimpact import Strategy, make_strategy
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand, write_servo
+from fallbench.support import FootSupport
 from fallbench.world import World, build_world, initial_state
 
 LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
@@ -56,14 +66,18 @@ class Recording:
     qd_ref: np.ndarray  # rad/s, (steps, nu)
     fall_time: float | None
     fall_reason: str
-    impact_time: float | None  # s, control step at which the policy switched
+    fall_times: dict[str, float]  # s, when each detector fired (selected or not), up to the first impact
+    impact_time: float | None  # s, control step at which the policy switched (the takeover)
     impact_bodies: list[str]
     controller_ms: np.ndarray  # ms per control step spent in the strategy and the policy
+    switch_time: np.ndarray  # s per motor at which it switched to the gain policy, NaN = never
     physics_s: float = 0.0  # s of wall time inside mj_step
     pre_impact: str = "none"
     impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
     landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
     policy_stats: dict[str, float] = field(default_factory=dict)
+    strategy: Strategy | None = None  # the pre-impact strategy, for its own metrics
+    policy_failure_times: list[float] = field(default_factory=list)  # s, control steps whose policy QP failed
     steps: int = 0
     status: str = "ok"
     error: str = ""
@@ -78,10 +92,10 @@ def _names(world: World, mask: np.ndarray) -> set[str]:
     return {world.contact_bodies[i] for i in np.flatnonzero(mask)}
 
 
-def _held(changes: list[tuple[int, ServoCommand]], n_control: int, nu: int) -> np.ndarray:
-    """(4, n_control, nu) kp, kd, q_ref, qd_ref per control step from the steps where they changed."""
-    gains = np.empty((4, n_control, nu))
-    ends = [k for k, _ in changes[1:]] + [n_control]
+def _held(changes: list[tuple[int, ServoCommand]], n_steps: int, nu: int) -> np.ndarray:
+    """(4, n_steps, nu) kp, kd, q_ref, qd_ref per physics step from the steps where they changed."""
+    gains = np.empty((4, n_steps, nu))
+    ends = [k for k, _ in changes[1:]] + [n_steps]
     for (start, command), end in zip(changes, ends):
         gains[:, start:end] = np.stack([command.kp, command.kd, command.q_ref, command.qd_ref])[:, None, :]
     return gains
@@ -105,8 +119,28 @@ def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) ->
         (policy.kp, policy.kd, policy.q_ref, policy.qd_ref), (other.kp, other.kd, other.q_ref, other.qd_ref))))
 
 
+def make_fall_detector(scenario: Scenario) -> FallDetector:
+    detection = scenario.detection
+    return FallDetector(detection.method, CapturePointDetector(detection.capture_point_margin),
+                        TiltDetector(detection.tilt), FreefallDetector(detection.freefall, detection.freefall_hold))
+
+
+def _with_baseline_gains(world: World, scenario: Scenario) -> World:
+    """The world with its default gains times `policy_params.stiff.gain_scale`: the baseline
+    stiffness that every policy uses before impact (and `stiff` after)."""
+    scale = gain_scale(scenario)
+    if scale == 1.0:
+        return world
+    return dataclasses.replace(world, default_kp=world.default_kp * scale, default_kd=world.default_kd * scale)
+
+
+def _failure_times(policy: GainPolicy) -> list[float]:
+    """Control steps (s) whose QP failed, from a QP policy's per-step records (if it keeps them)."""
+    return [float(r["t"]) for r in getattr(policy, "records", ()) if r.get("qp_solved", 1.0) == 0.0]
+
+
 def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") -> Recording:
-    world = build_world(scenario)
+    world = _with_baseline_gains(build_world(scenario), scenario)
     model = world.model
     policy: GainPolicy = make_policy(policy_name, world, scenario)
     strategy = make_strategy(pre_impact, world, scenario)
@@ -115,23 +149,26 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     P = pinocchio_for(world)
     landed_bodies = {b for g in LANDED_GROUPS for b in world.robot.body_groups.get(g, ())}
 
-    n_control = math.ceil(scenario.duration / scenario.control_dt - 1e-9)
     per_control = scenario.physics_steps_per_control
-    n_steps = n_control * per_control
+    n_steps = math.ceil(scenario.duration / scenario.control_dt - 1e-9) * per_control
     rec_sensor = np.zeros((n_steps, model.nsensordata))
     rec_qpos = np.zeros((n_steps, model.nq))
     rec_qvel = np.zeros((n_steps, model.nv))
     rec_force = np.zeros((n_steps, model.nu))
-    controller_ms = np.zeros(n_control)
+    controller_ms: list[float] = []
 
     q_start = data.qpos[world.qpos_adr].copy()
     command = pre_command = ServoCommand(world.default_kp, world.default_kd, q_start, np.zeros(model.nu))
     switched = np.zeros(model.nu, dtype=bool)  # motors under the gain policy
-    fall = FallDetector(scenario.detection.tilt, scenario.detection.freefall, scenario.detection.freefall_hold)
+    switch_time = np.full(model.nu, np.nan)
+    fall = make_fall_detector(scenario)
+    support = FootSupport(world)
     impact = ImpactDetector()
     q_ref_impact: np.ndarray | None = None
     push = _push_force(world, scenario)
     torso_rotation = np.zeros(9)
+    write_servo(model, data, command)  # before the first forward pass: the cached model holds the last episode's gains
+    written, changes = command, [(0, command)]  # (physics step, command) where the servo changed
     mujoco.mj_forward(model, data)
     sensor_row = data.sensordata.copy()
     status, error, step, physics_s = "ok", "", 0, 0.0
@@ -139,41 +176,47 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
     qpos, qvel, sensordata, actuator_force = data.qpos, data.qvel, data.sensordata, data.actuator_force
     qacc, warning_counts = data.qacc, data.warning.number
     seen = np.zeros(len(world.contact_bodies), dtype=bool)  # bodies in contact at detection or since
+    unplanned: np.ndarray | bool = True  # bodies whose contact would be an impact (not a planned footstep)
+    since = 0  # physics step of the previous control step
 
     def recent_found() -> np.ndarray:
-        return _found(world, rec_sensor[max(step - per_control, 0) : step] if step else sensor_row[None])
+        return _found(world, rec_sensor[since:step] if step else sensor_row[None])
 
-    written: ServoCommand | None = None
-    changes: list[tuple[int, ServoCommand]] = []  # (control step, command) where the servo changed
     policy_command: ServoCommand | None = None
-    for k in range(n_control):
-        t = k * scenario.control_dt
+    while step < n_steps:
+        t = step * scenario.physics_dt
         started = time.perf_counter()
-        if fall.time is None:
+        if impact.time is None and not fall.all_fired:  # every detector watched until the first impact
+            detected = fall.time is not None
+            found_now = recent_found()
             mujoco.mju_copy(torso_rotation, data.xmat[world.torso_body])
-            if fall.update(t, torso_rotation.reshape(3, 3), world.sensor(sensor_row, "imu_acc")):
-                seen = recent_found()
+            if fall.update(t, world.robot.torso_frame(torso_rotation.reshape(3, 3)), world.sensor(sensor_row, "imu_acc"),
+                           world.sensor(sensor_row, "com_pos"), world.sensor(sensor_row, "com_vel"),
+                           support.points(data, found_now)) and not detected:
+                seen = found_now
                 impact.start(_names(world, seen))
-                if strategy is not None:
-                    strategy.start(qpos, qvel, qpos[world.qpos_adr], qvel[world.qvel_adr])
+                strategy.start(t, data)
         switch_changed = False
         found = recent_found() if fall.time is not None else seen
         if fall.time is not None:
-            fresh = found & ~seen
+            planned = strategy.planned_contacts()
+            unplanned = ~np.isin(world.contact_bodies, list(planned)) if planned else True  # a planned footstep is not an impact
+            fresh = found & ~seen & unplanned
             if fresh.any():  # bodies touching for the first time since the fall was detected
                 seen |= fresh
                 new = _names(world, fresh)
                 impact.update(t, new)
                 impacts.update(t, new, data, qpos, qvel)
                 if impact.time is not None and not switched.all():
-                    now = np.ones(model.nu, dtype=bool) if strategy is None or new & landed_bodies else switched.copy()
+                    now = np.ones(model.nu, dtype=bool) if not strategy.per_chain_switching or new & landed_bodies else switched.copy()
                     now[select_motors(P, new, world.joint_names)] = True
                     if (now & ~switched).any():
                         q = qpos[world.qpos_adr]
                         q_ref_impact = np.where(now & ~switched, q, q_ref_impact if q_ref_impact is not None else q)
+                        switch_time[now & ~switched] = t
                         switched, switch_changed = now, True
-            if strategy is not None and not switched.all():
-                pre_command = strategy.step(t, data, qpos, qvel)
+            if not switched.all() and step % per_control == 0:  # the strategy's own 5 ms grid
+                pre_command = strategy.step(t, data) or pre_command
         if switched.any():
             if switch_changed or not policy.static or policy_command is None:
                 q, qd = qpos[world.qpos_adr], qvel[world.qvel_adr]
@@ -184,17 +227,19 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
             command = _compose(switched, policy_command, pre_command)
         else:
             command = pre_command
-        if fall.time is not None:
-            controller_ms[k] = (time.perf_counter() - started) * 1e3
+        controller_ms.append((time.perf_counter() - started) * 1e3 if fall.time is not None else 0.0)
         if command is not written:
             write_servo(model, data, command)
             written = command
-            changes.append((k, command))
+            changes.append((step, command))
         if push is not None:
             active = scenario.push.start <= t < scenario.push.start + scenario.push.duration
             data.xfrc_applied[push[0]] = push[1] if active else 0.0
 
-        for _ in range(per_control):
+        since = step
+        # until every motor has switched, a body touching for the first time ends the substeps at once
+        watched = world.contact_found_columns[~seen & unplanned] if fall.time is not None and not switched.all() else None
+        for _ in range(per_control - step % per_control):
             rec_qpos[step] = qpos
             rec_qvel[step] = qvel
             stepped = time.perf_counter()
@@ -204,26 +249,27 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
             rec_sensor[step] = sensordata
             rec_force[step] = actuator_force
             step += 1
+            if watched is not None and sensordata[watched].any():
+                break
         sensor_row = rec_sensor[step - 1]
         if warning_counts[DIVERGENCE_WARNINGS].any() or not math.isfinite(qacc.sum()):  # a NaN or inf anywhere
             status = "diverged"
             error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if warning_counts[w]) or "non-finite state"
             break
 
-    held = np.repeat(_held(changes, k + 1, model.nu), per_control, axis=1)[:, :step]
+    held = _held(changes, step, model.nu)
     landing_errors: dict[str, float] = {}
-    if strategy is not None:
-        for side in world.robot.arms:
-            contact = impacts.side_first_contact(side)
-            bip = strategy.bip_before(side, contact[1].t) if contact else None
-            if contact is not None and bip is not None:
-                landing_errors[side] = float(np.linalg.norm(contact[1].point - bip))
+    for side in world.robot.arms:
+        contact = impacts.side_first_contact(side)
+        target = strategy.landing_target(side, contact[1].t) if contact else None
+        if contact is not None and target is not None:
+            landing_errors[side] = float(np.linalg.norm(contact[1].point - target))
     return Recording(
         world=world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=rec_sensor[:step],
         qpos=rec_qpos[:step], qvel=rec_qvel[:step], actuator_force=rec_force[:step],
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
-        fall_time=fall.time, fall_reason=fall.reason, impact_time=impact.time, impact_bodies=impact.bodies,
-        controller_ms=controller_ms[: k + 1], physics_s=physics_s, pre_impact=pre_impact, impact_events=impacts.events,
-        landing_errors=landing_errors, policy_stats=policy.stats() | (strategy.stats() if strategy else {}),
-        steps=step, status=status, error=error,
+        fall_time=fall.time, fall_reason=fall.reason, fall_times=dict(fall.times), impact_time=impact.time, impact_bodies=impact.bodies,
+        controller_ms=np.array(controller_ms), physics_s=physics_s, pre_impact=pre_impact, impact_events=impacts.events,
+        landing_errors=landing_errors, policy_stats=policy.stats() | strategy.stats(), strategy=strategy,
+        switch_time=switch_time, policy_failure_times=_failure_times(policy), steps=step, status=status, error=error,
     )

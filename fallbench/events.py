@@ -1,4 +1,16 @@
-"""Fall and impact detection, as a controller on the robot would see them."""
+"""Fall and impact detection, as a controller on the robot would see them.
+
+Three fall detectors, each usable on its own (plain arrays in, no simulator):
+
+- `capture_point`: the instantaneous capture point xi = c_xy + c_dot_xy / omega0, omega0 =
+  sqrt(g / z_c) (Pratt et al. 2006, the fall trigger of 004 Sec. III-D), leaves the support
+  polygon by more than a margin;
+- `tilt`: the torso tilts past a threshold (000);
+- `freefall`: the IMU reads free fall for a hold time.
+
+`FallDetector` runs the three side by side: the fall is declared by the earliest of the selected
+ones, and every detector's own firing time is kept so that their lead times can be compared.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +18,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+GRAVITY = 9.81  # m/s^2
+METHODS = ("capture_point", "tilt", "freefall")
 
 
 def tilt_deg(rotation: np.ndarray) -> float:
@@ -13,31 +29,136 @@ def tilt_deg(rotation: np.ndarray) -> float:
     return math.degrees(math.acos(float(np.clip(rotation[2, 2], -1.0, 1.0))))
 
 
+def capture_point(com: np.ndarray, com_velocity: np.ndarray, gravity: float = GRAVITY) -> np.ndarray:
+    """Instantaneous capture point (m, ground plane) of the linear inverted pendulum at the CoM's
+    height: xi = c_xy + c_dot_xy / omega0, omega0 = sqrt(g / z_c)."""
+    omega0 = math.sqrt(gravity / max(float(com[2]), 1e-3))
+    return np.asarray(com[:2], dtype=float) + np.asarray(com_velocity[:2], dtype=float) / omega0
+
+
+def support_polygon(points: np.ndarray) -> np.ndarray:
+    """Vertices (k, 2), counter-clockwise, of the convex hull of ground-plane points (n, 2).
+    Fewer than three points, or collinear ones, give the degenerate hull: a segment or a point."""
+    points = np.unique(np.asarray(points, dtype=float)[:, :2], axis=0)
+    if len(points) >= 3:
+        try:
+            return points[ConvexHull(points).vertices]
+        except QhullError:  # collinear: the two extreme points
+            pass
+    if len(points) <= 1:
+        return points
+    axis = points[-1] - points[0]
+    order = np.argsort(points @ axis)
+    return points[[order[0], order[-1]]]
+
+
+def _segment_distance(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    ab = b - a
+    length2 = float(ab @ ab)
+    s = 0.0 if length2 < 1e-18 else float(np.clip((point - a) @ ab / length2, 0.0, 1.0))
+    return float(np.linalg.norm(point - a - s * ab))
+
+
+def signed_distance(point: np.ndarray, polygon: np.ndarray) -> float:
+    """Distance (m) from a ground-plane point to a convex polygon (counter-clockwise vertices):
+    positive outside, negative inside (minus the distance to the nearest edge)."""
+    point = np.asarray(point, dtype=float)[:2]
+    if len(polygon) == 0:
+        return math.inf
+    edges = [_segment_distance(point, polygon[i], polygon[(i + 1) % len(polygon)]) for i in range(len(polygon))]
+    if len(polygon) < 3:
+        return min(edges)
+    tangents = np.roll(polygon, -1, axis=0) - polygon
+    cross = tangents[:, 0] * (point[1] - polygon[:, 1]) - tangents[:, 1] * (point[0] - polygon[:, 0])
+    inside = bool((cross >= 0).all())
+    return -min(edges) if inside else min(edges)
+
+
 @dataclass
-class FallDetector:
-    """A fall starts when the torso tilts past `tilt` deg (000) or the IMU has read free fall for
-    `freefall_hold` s. The hold matters at t = 0 of a standing start: the feet touch the floor
-    without load yet, so the first reading is free fall although the robot stands."""
+class CapturePointDetector:
+    """The fall trigger: the capture point is more than `margin` m outside the support polygon.
+    Without support points (airborne) it cannot judge and does not fire."""
 
-    tilt: float  # deg
-    freefall: float  # m/s^2, accelerometer norm below which the robot is in free fall
-    freefall_hold: float  # s
+    margin: float  # m
+    gravity: float = GRAVITY
     time: float | None = None
-    reason: str = ""
-    freefall_since: float | None = None
+    distance: float = -math.inf  # m, capture point's signed distance to the polygon at the last update
 
-    def update(self, t: float, torso_rotation: np.ndarray, imu_acc: np.ndarray) -> bool:
+    def update(self, t: float, com: np.ndarray, com_velocity: np.ndarray, support_points: np.ndarray) -> bool:
+        if self.time is None and len(support_points):
+            xi = capture_point(com, com_velocity, self.gravity)
+            self.distance = signed_distance(xi, support_polygon(support_points))
+            if self.distance > self.margin:
+                self.time = t
+        return self.time is not None
+
+
+@dataclass
+class TiltDetector:
+    """The torso tilts past `threshold` deg (000's trigger)."""
+
+    threshold: float  # deg
+    time: float | None = None
+
+    def update(self, t: float, torso_rotation: np.ndarray) -> bool:
+        if self.time is None and tilt_deg(torso_rotation) > self.threshold:
+            self.time = t
+        return self.time is not None
+
+
+@dataclass
+class FreefallDetector:
+    """The accelerometer norm has stayed below `threshold` for `hold` s; the fall starts when it
+    first dropped. The hold matters at t = 0 of a standing start: the feet touch the floor without
+    load yet, so the first reading is free fall although the robot stands."""
+
+    threshold: float  # m/s^2
+    hold: float  # s
+    time: float | None = None
+    since: float | None = None
+
+    def update(self, t: float, imu_acc: np.ndarray) -> bool:
         if self.time is not None:
             return True
-        if float(np.linalg.norm(imu_acc)) >= self.freefall:
-            self.freefall_since = None
-        elif self.freefall_since is None:
-            self.freefall_since = t
-        if tilt_deg(torso_rotation) > self.tilt:
-            self.time, self.reason = t, "tilt"
-        elif self.freefall_since is not None and t - self.freefall_since >= self.freefall_hold - 1e-9:
-            self.time, self.reason = self.freefall_since, "freefall"
+        if float(np.linalg.norm(imu_acc)) >= self.threshold:
+            self.since = None
+        elif self.since is None:
+            self.since = t
+        if self.since is not None and t - self.since >= self.hold - 1e-9:
+            self.time = self.since
         return self.time is not None
+
+
+@dataclass
+class FallDetector:
+    """The three detectors side by side. The fall is declared by the earliest of `methods`;
+    `update` goes on feeding the others (`watch`) so that `times` records when each fired."""
+
+    methods: tuple[str, ...]
+    capture: CapturePointDetector
+    tilt: TiltDetector
+    freefall: FreefallDetector
+    time: float | None = None
+    reason: str = ""
+    times: dict[str, float] = field(default_factory=dict)
+
+    def update(self, t: float, torso_rotation: np.ndarray, imu_acc: np.ndarray, com: np.ndarray,
+               com_velocity: np.ndarray, support_points: np.ndarray) -> bool:
+        """Feed every detector one control step; True once the fall is declared."""
+        self.capture.update(t, com, com_velocity, support_points)
+        self.tilt.update(t, torso_rotation)
+        self.freefall.update(t, imu_acc)
+        detectors = {"capture_point": self.capture, "tilt": self.tilt, "freefall": self.freefall}
+        self.times = {name: d.time for name, d in detectors.items() if d.time is not None}
+        if self.time is None:
+            fired = [(self.times[m], METHODS.index(m), m) for m in self.methods if m in self.times]
+            if fired:
+                self.time, _, self.reason = min(fired)
+        return self.time is not None
+
+    @property
+    def all_fired(self) -> bool:
+        return len(self.times) == len(METHODS)
 
 
 @dataclass

@@ -9,9 +9,9 @@ import mujoco
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import select_motors
-from fallbench.control.contacts import environment_contacts
+from fallbench.dynamics.contacts import environment_contacts
 from fallbench.control.fall_singularity import Impact, singular_joints
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for
 from fallbench.world import World
 
 

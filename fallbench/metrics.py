@@ -15,12 +15,15 @@ import pandas as pd
 
 from fallbench.control.fall_direction import fall_class, horizontal_unit
 from fallbench.episode import Recording
+from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
+from fallbench.events import METHODS
 from fallbench.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
 IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated
 FELL_HEIGHT_FRACTION = 0.6  # base below this fraction of its standing height = fallen
 SMOOTHING_WINDOW = 0.005  # s, moving average for the *_5ms IMU peaks
+LANDING_WINDOW = 0.15  # s after the first impact: the landing that 002 Fig. 6 shows, before any later fall
 SAFE_FIRST_GROUPS = {"hands", "feet"}  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
 
 
@@ -43,6 +46,31 @@ def imu_metrics(acc: np.ndarray, dt: float) -> dict[str, float]:
         "imu_peak_norm": _peak(norm),
         "imu_peak_z_5ms": _peak(moving_average(acc[:, 2], window)),
         "imu_peak_norm_5ms": _peak(moving_average(norm, window)),
+    }
+
+
+def landing_mask(time: np.ndarray, impact: float | None, length: float = LANDING_WINDOW) -> np.ndarray:
+    """Samples in [impact, impact + length] (s); none without an impact."""
+    if impact is None or not math.isfinite(impact):
+        return np.zeros(len(time), dtype=bool)
+    return (time >= impact - 1e-9) & (time <= impact + length + 1e-9)
+
+
+def landing_metrics(time: np.ndarray, acc: np.ndarray, demand: np.ndarray, limit: np.ndarray, switch_time: np.ndarray,
+                    failure_times: list[float], impact: float | None, takeover: float | None,
+                    length: float = LANDING_WINDOW) -> dict[str, float]:
+    """The landing window's IMU peaks (m/s^2), PD demand / limit of the joints already under the gain
+    policy (switch_time <= t), QP failures, and the delay from first contact to takeover (s)."""
+    window = landing_mask(time, impact, length)
+    under_policy = (switch_time[None, :] <= time[:, None] + 1e-9) & window[:, None]
+    ratio = np.abs(demand) / limit
+    failures = landing_mask(np.asarray(failure_times, dtype=float), impact, length)
+    return {
+        "imu_peak_z_landing": _peak(acc[window, 2]),
+        "imu_peak_norm_landing": _peak(np.linalg.norm(acc[window], axis=1)),
+        "torque_demand_ratio_landing": float(ratio[under_policy].max()) if under_policy.any() else float("nan"),
+        "qp_failures_landing": int(np.count_nonzero(failures)),
+        "takeover_delay": float("nan") if impact is None or takeover is None else takeover - impact,
     }
 
 
@@ -71,7 +99,7 @@ def group_forces(rec: Recording) -> dict[str, np.ndarray]:
 
 
 def first_contact_time(rec: Recording) -> float | None:
-    """Physics-rate time of the impact the controller detected (it sees it up to one control step later)."""
+    """Physics-rate time of the impact the controller detected (its contact sensor reads it after that physics step)."""
     if rec.impact_time is None:
         return None
     world = rec.world
@@ -97,6 +125,19 @@ def fall_class_at_impact(rec: Recording) -> tuple[float, str]:
     if lean is None:
         return float("nan"), ""
     return math.degrees(math.atan2(lean[1], lean[0])), fall_class(lean, rotations[0])
+
+
+def fall_lead_times(rec: Recording, impact: float | None) -> dict[str, float]:
+    """When each fall detector fired (s, NaN if it did not before the first impact), and the lead
+    time (s) from the declared detection, and from each detector, to the first impact."""
+    row = {}
+    lead = (lambda fired: float("nan") if impact is None or fired is None else impact - fired)
+    row["fall_lead_time"] = lead(rec.fall_time)
+    for method in METHODS:
+        fired = rec.fall_times.get(method)
+        row[f"fall_time_{method}"] = float("nan") if fired is None else float(fired)
+        row[f"fall_lead_time_{method}"] = lead(fired)
+    return row
 
 
 def impact_metrics(rec: Recording) -> dict[str, object]:
@@ -141,6 +182,8 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["knee_limit_margin"] = float(margins[:, knees].min())
     row["joint_limit_hits"] = int(np.count_nonzero((margins < -LIMIT_HIT_TOLERANCE).any(axis=0)))
     row.update(torque_metrics(rec.actuator_force, demand, world.torque_limit, dt))
+    row.update(landing_metrics(rec.time, world.sensor(rec.sensordata, "imu_acc"), demand, world.torque_limit,
+                               rec.switch_time, rec.policy_failure_times, impact, rec.impact_time))
     row["contact_force_peak"] = float(forces["total"].max())
     for group in world.contact_groups:
         row[f"contact_force_peak_{group}"] = float(forces[group].max())
@@ -155,6 +198,7 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["policy_switch_time"] = float("nan") if rec.impact_time is None else float(rec.impact_time)
     row["fall_time"] = float("nan") if rec.fall_time is None else float(rec.fall_time)
     row["fall_reason"] = rec.fall_reason
+    row.update(fall_lead_times(rec, impact))
     row["first_contact_bodies"] = ",".join(rec.impact_bodies)
     row["final_base_height"] = float(base_height[-1])
     row["fell"] = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)
@@ -167,13 +211,16 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
                 "preimpact_qp_ms_median": float("nan"), "preimpact_qp_ms_p99": float("nan"), "preimpact_qp_failures": 0,
                 "preimpact_qp_steps": 0, "fall_class_at_detection": "", "fall_class_before_impact": ""})
     row.update(rec.policy_stats)
+    if rec.strategy is not None:
+        row.update(rec.strategy.metrics(rec))
+    if scenario.obstacles:  # 004's outcome among objects, for every strategy
+        origin = row.get("control_trigger_time", rec.fall_time)
+        row.update(obstacle_metrics(rec, origin if origin == origin else rec.fall_time))
+        if "predicted_fall_direction_deg" in row:
+            row["fall_direction_error_deg"] = direction_error_deg(row["predicted_fall_direction_deg"], row["actual_fall_direction_deg"])
     row["sim_steps"] = int(rec.steps)
     row["sim_time"] = float(rec.steps * dt)
     return row
-
-
-TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint",
-                     "torso_1_joint", "arm_left_1_joint", "arm_left_4_joint", "arm_left_6_joint", "arm_right_4_joint")
 
 
 def timeseries(rec: Recording) -> pd.DataFrame:
@@ -183,14 +230,18 @@ def timeseries(rec: Recording) -> pd.DataFrame:
     columns: dict[str, np.ndarray] = {"t": rec.time, "imu_acc_x": acc[:, 0], "imu_acc_y": acc[:, 1], "imu_acc_z": acc[:, 2]}
     for axis, i in zip("xyz", range(3)):
         columns[f"base_{axis}"] = rec.qpos[:, i]
-    for joint in TIMESERIES_JOINTS:
+    for joint in world.robot.timeseries_joints:
         j = world.joint_names.index(joint)
         columns[f"q:{joint}"] = rec.qpos[:, world.qpos_adr[j]]
         columns[f"tau:{joint}"] = rec.actuator_force[:, j]
     for group, force in group_forces(rec).items():
         columns[f"force:{group}"] = force
+    if rec.scenario.obstacles:  # for the top-down plots of falls among objects (004)
+        com = com_path(rec)
+        columns.update({"com_x": com[:, 0], "com_y": com[:, 1], "com_z": com[:, 2]})
+    legs = set(world.robot.leg_joints)
     for j, joint in enumerate(world.joint_names):
-        if joint.startswith("leg_"):
+        if joint in legs:
             columns[f"K:{joint}"] = rec.kp[:, j]
             columns[f"B:{joint}"] = rec.kd[:, j]
     return pd.DataFrame({k: np.asarray(v, dtype=np.float32) for k, v in columns.items()})

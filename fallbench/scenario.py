@@ -18,10 +18,13 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
+
+from fallbench.robots import DEFAULT_ROBOT, ROBOTS, get_robot
+from fallbench.robots.description import DEFAULT_POSTURE
 
 # Every number of a scenario is finite (Strict's allow_inf_nan=False) and within a documented
 # range (README, "Ranges"): give each new numeric field bounds (test_scenario_ranges checks that
@@ -53,7 +56,7 @@ class Strict(BaseModel):
 
 
 class Initial(Strict):
-    posture: Name = "half_sitting"
+    posture: Name = DEFAULT_POSTURE  # a posture of the robot; every robot has `default`, its nominal stance
     height: Annotated[float, Field(ge=0, le=10)] = 0.0  # m between the feet and the floor at t = 0
     joints: dict[Name, Annotated[float, Field(ge=-6.3, le=6.3)]] = {}  # rad, overrides of the posture
 
@@ -83,10 +86,21 @@ class Cylinder(Strict):
 Obstacle = Annotated[Union[Box, Cylinder], Field(discriminator="type")]
 
 
+DetectionMethod = Literal["capture_point", "tilt", "freefall"]
+
+
 class Detection(Strict):
+    # Detectors that may declare the fall; the earliest to fire wins (see fallbench/events.py).
+    method: Annotated[tuple[DetectionMethod, ...], Field(min_length=1)] = ("capture_point", "tilt", "freefall")
+    capture_point_margin: Annotated[float, Field(ge=-1, le=1)] = 0.02  # m the capture point must be outside the feet's support polygon
     tilt: Annotated[float, Field(gt=0, lt=90)] = 15.0  # deg of torso tilt that declares a fall (000)
     freefall: Annotated[float, Field(ge=0, le=9.81)] = 3.0  # m/s^2: accelerometer norm below this declares free fall
     freefall_hold: Annotated[float, Field(ge=0, le=10)] = 0.02  # s the accelerometer must read free fall
+
+    @field_validator("method", mode="before")
+    @classmethod
+    def _one_or_many(cls, value: Any) -> Any:
+        return (value,) if isinstance(value, str) else value
 
 
 MAX_PARAM = 1e6  # |value| of a policy parameter
@@ -119,7 +133,7 @@ class Scenario(Strict):
     """One fully resolved scenario point (no sweep left)."""
 
     name: Name
-    robot: Name = "talos"  # default: files written before other robots existed describe TALOS
+    robot: Name = DEFAULT_ROBOT  # default: files written before other robots existed describe TALOS
     duration: Seconds  # s
     physics_dt: Annotated[float, Field(ge=1e-4, le=0.01)] = 0.001  # s
     control_dt: Annotated[float, Field(ge=1e-4, le=0.1)] = 0.005  # s
@@ -128,9 +142,9 @@ class Scenario(Strict):
     push: Push | None = None
     obstacles: Annotated[list[Obstacle], Field(max_length=64)] = []
     detection: Detection = Detection()
-    # policy (or `reshape`) name -> parameter overrides: numbers, flags, names, or lists of them
+    # policy (or strategy) name -> parameter overrides: numbers, flags, names, or lists of them
     policy_params: dict[Name, dict[Name, ParamValue]] = {}
-    pre_impact: tuple[Literal["none", "reshape"], ...] | None = None  # pins the strategies swept for this scenario
+    pre_impact: tuple[Name, ...] | None = None  # pins the strategies swept for this scenario (names checked in world.check_scenario)
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
 
     @model_validator(mode="after")
@@ -157,6 +171,9 @@ class ScenarioFile(Scenario):
     randomize: dict[Name, tuple[Annotated[float, Field(ge=-1e6, le=1e6)], Annotated[float, Field(ge=-1e6, le=1e6)]]] = {}
     sweep: dict[Name, Annotated[list[Any], Field(max_length=MAX_POINTS_PER_FILE)]] = {}
     seeds: Annotated[int, Field(ge=1, le=MAX_POINTS_PER_FILE)] = 1
+    layout_yaw: Degrees = 0.0  # deg: turns every obstacle about the world z axis through the origin (the robot)
+    sizes_for: Name | None = None  # robot the push forces and obstacle geometry are written for (scaled on others)
+    per_robot: dict[Name, dict[Name, Any]] = {}  # robot -> dotted key -> value, applied after the scaling
 
 
 class ScenarioError(ValueError):
@@ -179,7 +196,9 @@ class ScenarioPoint:
 
     @property
     def label(self) -> str:
-        parts = [f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith("randomize:")]
+        parts = [f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith(("randomize:", SCALE_PREFIX))]
+        if "robot" not in self.swept and self.scenario.robot != DEFAULT_ROBOT:
+            parts.insert(0, f"robot={self.scenario.robot}")  # points of different robots never share a label
         return self.scenario.name + ("[" + ",".join(parts) + "]" if parts else "") + f"#s{self.scenario.seed}"
 
 
@@ -312,6 +331,34 @@ def _validation_error(path: Path, doc: Any, exc: ValidationError, line_loc: tupl
     return ScenarioError(path, line, key, reason)
 
 
+# ---------------------------------------------------------------- sizes that depend on the robot
+
+SCALE_PREFIX = "scale:"  # swept entries recording the factors applied to a file's sizes
+
+
+def robot_scales(robot: str, sizes_for: str) -> dict[str, float]:
+    """Factors that carry a file's sizes from robot `sizes_for` to `robot`: forces by the mass
+    ratio (the same change of CoM velocity, F t / m), lengths by the ratio of standing heights."""
+    target, reference = get_robot(robot), get_robot(sizes_for)
+    return {"force": target.mass / reference.mass, "length": target.standing_height / reference.standing_height}
+
+
+def _scale_sizes(data: dict[str, Any], scales: dict[str, float]) -> None:
+    """Push force and obstacle positions and dimensions (robot at the origin) of a point, in place."""
+    push = data.get("push")
+    if isinstance(push, dict) and isinstance(push.get("force"), (int, float)):
+        push["force"] = push["force"] * scales["force"]
+    for obstacle in data.get("obstacles") or []:
+        if not isinstance(obstacle, dict):
+            continue
+        for key in ("pos", "size"):
+            if isinstance(obstacle.get(key), list):
+                obstacle[key] = [v * scales["length"] if isinstance(v, (int, float)) else v for v in obstacle[key]]
+        for key in ("radius", "height"):
+            if isinstance(obstacle.get(key), (int, float)):
+                obstacle[key] = obstacle[key] * scales["length"]
+
+
 # ---------------------------------------------------------------- sweep expansion
 
 def _set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
@@ -326,13 +373,27 @@ def _set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
     node[keys[-1]] = value
 
 
-def _points(path: Path, doc: CommentedMap, spec: ScenarioFile) -> list[ScenarioPoint]:
+def _turn_layout(data: dict[str, Any], yaw_deg: float) -> None:
+    """Obstacles turned by `yaw_deg` about the origin: positions rotate, boxes turn with them."""
+    if not yaw_deg or not isinstance(data.get("obstacles"), list):
+        return
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    for obstacle in data["obstacles"]:
+        if isinstance(obstacle, dict) and isinstance(obstacle.get("pos"), list) and len(obstacle["pos"]) == 3:
+            x, y, z = obstacle["pos"]
+            obstacle["pos"] = [c * x - s * y, s * x + c * y, z]
+            if obstacle.get("type") == "box":
+                obstacle["yaw"] = obstacle.get("yaw", 0.0) + yaw_deg
+
+
+def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None = None) -> list[ScenarioPoint]:
     base = _plain(doc)
-    for key in ("sweep", "randomize", "seeds"):
+    for key in ("sweep", "randomize", "seeds", "sizes_for", "per_robot"):
         base.pop(key, None)
-    sweep_keys = list(spec.sweep)
+    sweep = {"robot": [robot], **{k: v for k, v in spec.sweep.items() if k != "robot"}} if robot else spec.sweep
+    sweep_keys = list(sweep)
     points = []
-    for values in itertools.product(*(spec.sweep[k] for k in sweep_keys)):
+    for values in itertools.product(*(sweep[k] for k in sweep_keys)):
         for rep in range(spec.seeds):
             data = copy.deepcopy(base)
             seed = spec.seed + rep
@@ -346,12 +407,37 @@ def _points(path: Path, doc: CommentedMap, spec: ScenarioFile) -> list[ScenarioP
                     _set_dotted(data, key, value)
                 except (KeyError, TypeError):
                     raise ScenarioError(path, _line_of(doc, _origin(spec, key)), key, "not a key of the scenario") from None
+            yaw = data.pop("layout_yaw", 0.0)
+            if isinstance(yaw, bool) or not isinstance(yaw, (int, float)):
+                raise ScenarioError(path, _line_of(doc, _origin(spec, "layout_yaw")), "layout_yaw", f"expected degrees (got {yaw!r})")
+            _turn_layout(data, yaw)
+            swept.update(_robot_sizes(path, doc, spec, data))
             try:
                 scenario = Scenario.model_validate(data)
             except ValidationError as exc:
                 raise _sweep_error(path, doc, spec, swept, exc) from None
             points.append(ScenarioPoint(scenario, swept, str(path)))
     return points
+
+
+def _robot_sizes(path: Path, doc: CommentedMap, spec: ScenarioFile, data: dict[str, Any]) -> dict[str, float]:
+    """Scale a point's sizes to its robot and apply the file's per-robot values, in place;
+    returns the factors applied, as `scale:*` entries for the point's record."""
+    robot = data.get("robot", DEFAULT_ROBOT)
+    if robot not in ROBOTS:
+        return {}  # reported by check_scenario, at the `robot` key
+    applied: dict[str, float] = {}
+    if spec.sizes_for is not None and robot != spec.sizes_for:
+        scales = robot_scales(robot, spec.sizes_for)
+        _scale_sizes(data, scales)
+        applied = {f"{SCALE_PREFIX}{name}": factor for name, factor in scales.items()}
+    for key, value in spec.per_robot.get(robot, {}).items():
+        try:
+            _set_dotted(data, key, copy.deepcopy(value))
+        except (KeyError, TypeError):
+            raise ScenarioError(path, _line_of(doc, ("per_robot", robot, key)), f"per_robot.{robot}.{key}",
+                                "not a key of the scenario") from None
+    return applied
 
 
 def _sweep_error(path: Path, doc: CommentedMap, spec: ScenarioFile, swept: dict[str, Any], exc: ValidationError) -> ScenarioError:
@@ -370,13 +456,14 @@ def _origin(spec: ScenarioFile, key: str) -> tuple[str, str]:
     return ("sweep", key) if key in spec.sweep else ("randomize", key)
 
 
-def load_scenario_file(path: Path | str) -> list[ScenarioPoint]:
-    """Parse, validate and expand one scenario file; raises ScenarioError on any bad input."""
+def load_scenario_file(path: Path | str, robot: str | None = None) -> list[ScenarioPoint]:
+    """Parse, validate and expand one scenario file; raises ScenarioError on any bad input.
+    `robot` replaces the file's robot (and any sweep over robots)."""
     path = Path(path)
-    return [point for doc in _read_yaml(path) for point in _load_document(path, doc)]
+    return [point for doc in _read_yaml(path) for point in _load_document(path, doc, robot)]
 
 
-def _load_document(path: Path, doc: CommentedMap) -> list[ScenarioPoint]:
+def _load_document(path: Path, doc: CommentedMap, robot: str | None = None) -> list[ScenarioPoint]:
     from fallbench.world import check_scenario  # the world knows robots, bodies and geometry
 
     try:
@@ -389,11 +476,15 @@ def _load_document(path: Path, doc: CommentedMap) -> list[ScenarioPoint]:
     for key, values in spec.sweep.items():
         if not values:
             raise ScenarioError(path, _line_of(doc, ("sweep", key)), f"sweep.{key}", "empty list of values")
+    for key, names in (("sizes_for", [spec.sizes_for] if spec.sizes_for else []), ("per_robot", list(spec.per_robot))):
+        for name in names:
+            if name not in ROBOTS:
+                raise ScenarioError(path, _line_of(doc, (key,)), key, f"unknown robot {name!r} (known: {', '.join(sorted(ROBOTS))})")
     count = math.prod(len(values) for values in spec.sweep.values()) * spec.seeds
     if count > MAX_POINTS_PER_FILE:
         raise ScenarioError(path, _line_of(doc, ("sweep",)) or _line_of(doc, ("seeds",)), "sweep",
                             f"{count:,} points (sweep values x seeds), over the limit of {MAX_POINTS_PER_FILE:,} per file")
-    points = _points(path, doc, spec)
+    points = _points(path, doc, spec, robot)
     checked: set[str] = set()
     for point in points:
         fingerprint = scenario_hash(point.scenario.model_copy(update={"seed": 0}))
@@ -409,8 +500,8 @@ def _load_document(path: Path, doc: CommentedMap) -> list[ScenarioPoint]:
     return points
 
 
-def load_scenarios(paths: list[Path | str]) -> list[ScenarioPoint]:
-    return [point for path in paths for point in load_scenario_file(path)]
+def load_scenarios(paths: list[Path | str], robot: str | None = None) -> list[ScenarioPoint]:
+    return [point for path in paths for point in load_scenario_file(path, robot)]
 
 
 def canonical_json(data: Any) -> str:

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
+
 import mujoco
 import numpy as np
 
@@ -167,8 +169,14 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
                        ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL)):
         sensor = spec.add_sensor()
         sensor.name, sensor.type = name, kind
-        # XBODY: the body's own frame (BODY would be its inertial frame, rotated on TALOS's waist)
+        # XBODY: the body's own frame (BODY would be its inertial frame, which a URDF may rotate)
         sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_XBODY, robot.root_body
+
+    # whole-robot CoM and its velocity, for the capture point (computed in C inside the step)
+    for name, kind in (("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM), ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL)):
+        sensor = spec.add_sensor()
+        sensor.name, sensor.type = name, kind
+        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_BODY, robot.root_body
 
     _add_contact_sensor(spec, "contact:total", robot.root_body, subtree=True)
     for group, bodies in robot.body_groups.items():
@@ -277,6 +285,16 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
 
 # ---------------------------------------------------------------- checks before running
 
+def _parameter_problem(default: Any, value: Any) -> str | None:
+    """Why a policy or strategy parameter's value does not fit its default's type, else None."""
+    if isinstance(default, bool) or isinstance(default, str):
+        return None if isinstance(value, type(default)) else f"expected {type(default).__name__} (got {value!r})"
+    if isinstance(default, (int, float)):
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        return None if number and math.isfinite(value) else f"expected a finite number (got {value!r})"
+    return None
+
+
 def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
     """(key, reason) of the first problem that needs the robot or the scene to see, else None."""
     from fallbench.robots import ROBOTS
@@ -298,10 +316,13 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
     if scenario.push and scenario.push.body is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scenario.push.body) < 1:
         return "push.body", f"unknown body {scenario.push.body!r} of robot {robot.name!r}"
     from fallbench.policies import POLICIES
+    from fallbench.preimpact import STRATEGIES
 
-    from fallbench.control.reshape import RESHAPE_PARAMS
-
-    parameters = {name: policy.defaults for name, policy in POLICIES.items()} | {"reshape": RESHAPE_PARAMS}
+    for index, name in enumerate(scenario.pre_impact or ()):
+        if name not in STRATEGIES:
+            return f"pre_impact.{index}", f"unknown pre-impact strategy {name!r} (known: {', '.join(STRATEGIES)})"
+    parameters = {name: policy.defaults for name, policy in POLICIES.items()} | {
+        name: strategy.defaults for name, strategy in STRATEGIES.items() if strategy.defaults}
     for policy, params in scenario.policy_params.items():
         if policy not in parameters:
             return f"policy_params.{policy}", f"unknown policy or strategy (known: {', '.join(parameters)})"
@@ -309,6 +330,14 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
         if unknown:
             known = ", ".join(sorted(parameters[policy])) or "none"
             return f"policy_params.{policy}.{unknown[0]}", f"unknown parameter of {policy!r} (known: {known})"
+        for key, value in params.items():
+            problem = _parameter_problem(parameters[policy][key], value)
+            if problem:
+                return f"policy_params.{policy}.{key}", problem
+    from fallbench.policies.stiff import gain_scale
+
+    if gain_scale(scenario) <= 0:
+        return "policy_params.stiff.gain_scale", f"the baseline gain scale must be > 0 (got {gain_scale(scenario)})"
     if scenario.push and scenario.push.start >= scenario.duration:
         return "push.start", f"the push starts at {scenario.push.start} s, after the episode ends ({scenario.duration} s)"
     data = initial_state(world, scenario)

@@ -15,8 +15,8 @@ from fallbench.control.adaptive_gains_qp import (
     model_terms,
     select_motors,
 )
-from fallbench.control.contacts import cone_matrix, environment_contacts
-from fallbench.control.dense_qp import DenseQP
+from fallbench.dynamics.contacts import cone_matrix, environment_contacts
+from fallbench.dynamics.dense_qp import DenseQP
 from fallbench.episode import run_episode
 from fallbench.scenario import Scenario
 

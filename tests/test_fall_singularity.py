@@ -8,7 +8,7 @@ import pytest
 
 from fallbench.control.fall_posture import elbow_angle_max_manipulability, fall_posture
 from fallbench.control.fall_singularity import Impact, singular_joints
-from fallbench.control.model import PinocchioModel, build_pinocchio
+from fallbench.dynamics.model import PinocchioModel, build_pinocchio
 from fallbench.scenario import Scenario
 from fallbench.world import build_world
 

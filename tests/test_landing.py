@@ -9,7 +9,7 @@ import pytest
 
 from fallbench.control.fall_direction import FallDirection, fall_class
 from fallbench.control.landing import Candidate, choose, circle_plane_crossings, landing_candidates
-from fallbench.control.model import build_pinocchio
+from fallbench.dynamics.model import build_pinocchio
 from fallbench.control.reach import ReachPolyhedron, compute_polyhedra
 from fallbench.control.surfaces import Surface, scene_surfaces
 from fallbench.scenario import Box, Scenario

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fallbench.metrics import imu_metrics, joint_limit_margins, moving_average, torque_metrics
+from fallbench.metrics import imu_metrics, joint_limit_margins, landing_metrics, moving_average, torque_metrics
 
 
 def test_imu_peaks_raw_and_smoothed() -> None:
@@ -38,3 +38,37 @@ def test_torque_ratios_and_saturation_time() -> None:
     assert m["torque_ratio_max"] == 1.0
     assert m["torque_demand_ratio_max"] == 2.0
     assert np.isclose(m["saturation_time"], 0.002)  # two samples with a joint past its limit
+
+
+def test_landing_window_metrics_see_only_the_landing() -> None:
+    """Peaks inside [impact, impact + 0.15 s] count; a bigger one 0.2 s later (the fall) does not."""
+    time = np.arange(1000) * 0.001
+    acc = np.zeros((1000, 3))
+    acc[:, 2] = 9.81
+    acc[100, 2] = 500.0  # before the impact
+    acc[450, 2] = -80.0  # inside, negative
+    acc[450, 0] = 60.0
+    acc[600, 2] = 70.0  # the window's last sample, inside
+    acc[601, 2] = 300.0  # just outside
+    limit = np.array([100.0, 10.0])
+    demand = np.zeros((1000, 2))
+    demand[500, 0] = 250.0  # joint 0 under the policy from 0.45 s: ratio 2.5
+    demand[460, 1] = 80.0  # joint 1 switches only at 0.47 s: not counted ...
+    demand[480, 1] = 30.0  # ... this one is: ratio 3
+    demand[700, 0] = 1e4  # outside the window
+    row = landing_metrics(time, acc, demand, limit, switch_time=np.array([0.451, 0.47]),
+                          failure_times=[0.3, 0.455, 0.6, 0.605], impact=0.45, takeover=0.451)
+    assert row["imu_peak_z_landing"] == 80.0
+    assert np.isclose(row["imu_peak_norm_landing"], 100.0)  # hypot(60, 80)
+    assert row["torque_demand_ratio_landing"] == 3.0
+    assert row["qp_failures_landing"] == 2  # 0.455 and 0.6 (the window's end is included)
+    assert np.isclose(row["takeover_delay"], 0.001)
+    shorter = landing_metrics(time, acc, demand, limit, np.array([0.451, 0.47]), [], 0.45, 0.451, length=0.02)
+    assert shorter["torque_demand_ratio_landing"] == 0.0 and shorter["imu_peak_z_landing"] == 80.0
+
+
+def test_landing_metrics_without_impact_are_empty() -> None:
+    time = np.arange(10) * 0.001
+    row = landing_metrics(time, np.ones((10, 3)), np.ones((10, 2)), np.ones(2), np.full(2, np.nan), [], None, None)
+    assert np.isnan(row["imu_peak_z_landing"]) and np.isnan(row["torque_demand_ratio_landing"])
+    assert row["qp_failures_landing"] == 0 and np.isnan(row["takeover_delay"])

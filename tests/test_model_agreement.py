@@ -5,14 +5,16 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pinocchio as pin
+import pytest
 
-from fallbench.control.model import build_pinocchio
+from fallbench.dynamics.model import build_pinocchio
+from fallbench.robots import ROBOTS
 from fallbench.scenario import Scenario
 from fallbench.world import build_world, initial_state
 
 
-def _random_state(seed: int):
-    scenario = Scenario(name="t", duration=1.0, initial={"height": 0.3})
+def _random_state(seed: int, robot: str):
+    scenario = Scenario(name="t", duration=1.0, robot=robot, initial={"height": 0.3})
     world = build_world(scenario)
     data = initial_state(world, scenario)
     rng = np.random.default_rng(seed)
@@ -43,9 +45,10 @@ def _pin_to_mj_order(P, nv: int) -> np.ndarray:
     return order
 
 
-def test_mass_matrix_and_nonlinear_effects_agree() -> None:
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_mass_matrix_and_nonlinear_effects_agree(robot: str) -> None:
     for seed in range(3):
-        world, data = _random_state(seed)
+        world, data = _random_state(seed, robot)
         model = world.model
         P = build_pinocchio(world)
         q, v = P.state(data.qpos, data.qvel)
@@ -65,9 +68,13 @@ def test_mass_matrix_and_nonlinear_effects_agree() -> None:
         assert np.abs(nle_pin - nle_mj_in_pin).max() < 1e-8 * max(1.0, np.abs(data.qfrc_bias).max())
 
 
-def test_armature_is_in_both_models() -> None:
-    world, _ = _random_state(0)
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_armature_is_in_both_models(robot: str) -> None:
+    world, _ = _random_state(0, robot)
     P = build_pinocchio(world)
-    srdf_joints = [world.joint_names.index(j) for j in world.robot.armature]
-    np.testing.assert_allclose(world.model.dof_armature[world.qvel_adr[srdf_joints]], 0.1)  # 1e-5 kg m^2 x 100^2
+    joints = [world.joint_names.index(j) for j in world.robot.armature]
+    assert joints, "every registered robot declares its rotor inertias"
+    np.testing.assert_allclose(world.model.dof_armature[world.qvel_adr[joints]], list(world.robot.armature.values()))
     np.testing.assert_allclose(P.model.armature[P.actuated_v], world.model.dof_armature[world.qvel_adr])
+    if robot == "talos":  # the SRDF's rotor_params: 1e-5 kg m^2 x gear ratio 100^2
+        np.testing.assert_allclose(world.model.dof_armature[world.qvel_adr[joints]], 0.1)

@@ -6,9 +6,12 @@ import math
 
 import mujoco
 import numpy as np
+import pytest
 
 from fallbench.episode import run_episode
+from fallbench.events import tilt_deg
 from fallbench.metrics import compute_metrics
+from fallbench.robots import ROBOTS, get_robot
 from fallbench.scenario import Scenario
 from fallbench.world import build_world, initial_state
 
@@ -22,8 +25,9 @@ def test_drop_impact_time_and_speed_match_free_fall(drop_scenario: Scenario) -> 
     assert set(row["first_contact_bodies"].split(",")) == {"leg_left_6_link", "leg_right_6_link"}
 
 
-def test_standing_robot_reads_gravity_and_its_weight() -> None:
-    scenario = Scenario(name="stand", duration=0.5)
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_standing_robot_reads_gravity_and_its_weight(robot: str) -> None:
+    scenario = Scenario(name="stand", duration=0.5, robot=robot)
     world = build_world(scenario)
     data = initial_state(world, scenario)
     for _ in range(500):
@@ -32,6 +36,26 @@ def test_standing_robot_reads_gravity_and_its_weight() -> None:
     acc = world.sensor(data.sensordata, "imu_acc")
     assert abs(np.linalg.norm(acc) - 9.81) < 0.2 and acc[2] > 9.5  # specific force, z up, at rest
     assert abs(np.linalg.norm(world.sensor(data.sensordata, "contact:total")[1:4]) - mass * 9.81) < 0.02 * mass * 9.81
+    assert abs(mass - get_robot(robot).mass) < 1e-6  # kg, the URDF's links, all simulated
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_robot_stands_still_for_2_s_under_stiff(robot: str) -> None:
+    """In its `default` stance, no self-collision at start, the default gains hold the robot."""
+    scenario = Scenario(name="stand", duration=2.0, robot=robot)
+    world = build_world(scenario)
+    data = initial_state(world, scenario)
+    mujoco.mj_collision(world.model, data)
+    bodies = [(world.model.geom_bodyid[c.geom1], world.model.geom_bodyid[c.geom2]) for c in data.contact[: data.ncon]]
+    assert all(0 in pair for pair in bodies), "robot parts touch each other in the default stance"
+    rec = run_episode(scenario, "stiff")
+    assert rec.status == "ok" and rec.fall_time is None
+    assert np.linalg.norm(rec.qpos[-1, :2] - rec.qpos[0, :2]) < 0.05  # m of base drift
+    assert abs(rec.qpos[-1, 2] - get_robot(robot).standing_height) < 0.01  # m: the declared length scale
+    assert np.abs(rec.qvel[-200:]).max() < 0.2  # rad/s and m/s over the last 0.2 s: at rest
+    rotation = np.zeros(9)
+    mujoco.mju_quat2Mat(rotation, rec.qpos[-1, 3:7])
+    assert tilt_deg(rotation.reshape(3, 3)) < 5.0  # deg (TALOS settles 3 deg forward)
 
 
 def test_zero_gains_reach_the_knee_stop_and_stiff_does_not(drop_scenario: Scenario) -> None:

@@ -55,16 +55,40 @@ def test_claims_verdicts_follow_the_numbers() -> None:
     rows = pd.DataFrame({
         "scenario": "drop", "status": "ok", "pre_impact": "none", "param:initial.height": 1.0,
         "policy": ["stiff", "oneshot", "zero", "adaptive_qp"],
-        "imu_peak_z": [300.0, 200.0, 250.0, 100.0],
+        "imu_peak_z_landing": [300.0, 200.0, 250.0, 100.0],
+        "imu_peak_z": [300.0, 400.0, 250.0, 500.0],  # whole episode: the later fall, not judged
         "knee_limit_margin": [0.5, -0.01, -0.02, 0.3],
-        "torque_demand_ratio_max": [5.0, 0.5, 0.4, 0.9],
+        "torque_demand_ratio_landing": [5.0, 0.0, 0.0, 0.9],
+        "torque_demand_ratio_max": [5.0, 0.5, 0.4, 3.0],
         "torque_ratio_max": [1.0, 0.5, 0.4, 0.9],
     })
     verdicts = dict(zip(claims_table(rows)["claim (002 Sec. VI)"][:7], claims_table(rows).verdict[:7]))
     assert set(verdicts.values()) == {"holds"}
     rows.loc[rows.policy == "adaptive_qp", "knee_limit_margin"] = -0.1
+    rows.loc[rows.policy == "adaptive_qp", "imu_peak_z_landing"] = 301.0
+    table = claims_table(rows).set_index("claim (002 Sec. VI)")
+    assert table.loc["adaptive_qp stays off the knee stop", "verdict"].iloc[0] == "does not hold"
+    assert table.loc["adaptive_qp has a lower IMU acceleration than stiff (landing)", "verdict"].iloc[0] == "does not hold"
+    assert "whole episode stiff 300, oneshot 400, zero 250, adaptive_qp 500" in table.loc["stiff has the highest IMU acceleration (landing)", "numbers"].iloc[0]
+
+
+def test_claims_per_baseline_gain_scale() -> None:
+    """A sensitivity sweep gets one scope per (gain scale, adaptive_qp setting); the drops' scopes keep scale 1."""
+    scales, settings = [0.5, 0.5, 2.0, 2.0], [100.0, 25.0, 100.0, 25.0]
+    rows = pd.DataFrame([{
+        "scenario": "sensitivity", "status": "ok", "pre_impact": "none", "policy": policy,
+        "param:policy_params.stiff.gain_scale": scale, "param:policy_params.adaptive_qp.posture_kp": kp,
+        "imu_peak_z_landing": {"stiff": 100.0 * scale, "adaptive_qp": 150.0}[policy], "imu_peak_z": 300.0,
+        "knee_limit_margin": 0.3, "torque_demand_ratio_landing": 0.5, "torque_demand_ratio_max": 0.5, "torque_ratio_max": 0.5,
+    } for scale, kp in zip(scales, settings) for policy in ("stiff", "adaptive_qp")])
     table = claims_table(rows)
-    assert table.set_index("claim (002 Sec. VI)").loc["adaptive_qp stays off the knee stop", "verdict"].iloc[0] == "does not hold"
+    lower = table[table["claim (002 Sec. VI)"] == "adaptive_qp has a lower IMU acceleration than stiff (landing)"]
+    assert dict(zip(lower.scope, lower.verdict)) == {
+        "sensitivity: gain scale 0.5, adaptive_qp.posture_kp=25": "does not hold",
+        "sensitivity: gain scale 0.5, adaptive_qp.posture_kp=100": "does not hold",
+        "sensitivity: gain scale 2, adaptive_qp.posture_kp=25": "holds",
+        "sensitivity: gain scale 2, adaptive_qp.posture_kp=100": "holds",
+    }
 
 
 def test_first_impact_table_counts_by_push_direction() -> None:

@@ -9,7 +9,9 @@ from fallbench.episode import Recording, run_episode
 from fallbench.metrics import compute_metrics
 from fallbench.scenario import Push, Scenario
 
-BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1))
+# Tilt detection: with the earlier capture-point trigger this back push lands on the torso first.
+BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1),
+                     detection={"method": ["tilt", "freefall"]})
 
 
 @pytest.fixture(scope="module")

@@ -8,11 +8,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.control.model import PinocchioModel, build_pinocchio
-from fallbench.control.tasks.body_point import BodyPoint
-from fallbench.control.tasks.relative_distance import RelativeDistanceTask, SurfacePair
-from fallbench.control.tasks.surface_position import SurfacePositionTask
-from fallbench.control.tasks.vector_orientation import VectorOrientationTask
+from fallbench.dynamics.model import PinocchioModel, build_pinocchio
+from fallbench.dynamics.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
+from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
+from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.scenario import Scenario
 from fallbench.world import build_world
 

@@ -6,10 +6,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.control.contacts import ContactPoint, contact_kinematics, friction_generators
-from fallbench.control.model import PinocchioModel, build_pinocchio
-from fallbench.control.tasks.com import ComTask
-from fallbench.control.tasks.posture import PostureTask
+from fallbench.dynamics.contacts import ContactPoint, contact_kinematics, friction_generators
+from fallbench.dynamics.model import PinocchioModel, build_pinocchio
+from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.posture import PostureTask
 from fallbench.scenario import Scenario
 from fallbench.world import build_world
 

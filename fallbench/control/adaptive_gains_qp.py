@@ -26,11 +26,11 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from fallbench.control.dense_qp import DenseQP, ScaledQP
-from fallbench.control.contacts import ContactKinematics, ContactPoint, cone_matrix, contact_kinematics, normal_matrix
-from fallbench.control.model import PinocchioModel
-from fallbench.control.tasks.com import ComTask
-from fallbench.control.tasks.posture import PostureTask
+from fallbench.dynamics.dense_qp import DenseQP, ScaledQP
+from fallbench.dynamics.contacts import ContactKinematics, ContactPoint, cone_matrix, contact_kinematics, normal_matrix
+from fallbench.dynamics.model import PinocchioModel
+from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.posture import PostureTask
 
 LAMBDA_SCALE, K_SCALE, B_SCALE = 100.0, 1000.0, 10.0
 QDD_BOUND = 1e4  # rad/s^2 or m/s^2: no real bound, keeps the box finite

@@ -58,7 +58,7 @@ def sample_wrist_offsets(model: pin.Model, robot: RobotDescription, side: str, s
             q[i] = rng.uniform(model.lowerPositionLimit[i], model.upperPositionLimit[i])
         pin.forwardKinematics(model, data, q)
         pin.updateFramePlacements(model, data)
-        rotation = data.oMf[torso].rotation
+        rotation = robot.torso_frame(data.oMf[torso].rotation)
         offsets[k] = rotation.T @ (data.oMi[wrist].translation - data.oMi[shoulder].translation)
     return offsets
 
@@ -72,7 +72,7 @@ def _hull_vertices(points: np.ndarray) -> np.ndarray:
 
 def _cache_file(robot: RobotDescription) -> Path:
     root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench"
-    key = hashlib.sha256(robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}".encode()).hexdigest()[:16]
+    key = hashlib.sha256(robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}:{robot.torso_axes}".encode()).hexdigest()[:16]
     return root / f"reach-{robot.name}-{key}.npz"
 
 

@@ -22,21 +22,21 @@ import mujoco
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import model_terms
-from fallbench.control.contacts import environment_contacts
-from fallbench.control.dense_qp import DenseQP
+from fallbench.dynamics.contacts import environment_contacts
+from fallbench.dynamics.dense_qp import DenseQP
 from fallbench.control.fall_direction import FallDirection, fall_class, heading
 from fallbench.control.fall_posture import fall_posture
 from fallbench.control.landing import Candidate, choose, landing_candidates
-from fallbench.control.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for
 from fallbench.control.reach import reach_polyhedra
 from fallbench.control.reshape_qp import SetPoint, build_reshape_problem
 from fallbench.control.surfaces import scene_surfaces
-from fallbench.control.tasks.body_point import BodyPoint
-from fallbench.control.tasks.com import ComTask
-from fallbench.control.tasks.posture import PostureTask
-from fallbench.control.tasks.relative_distance import RelativeDistanceTask, SurfacePair
-from fallbench.control.tasks.surface_position import SurfacePositionTask
-from fallbench.control.tasks.vector_orientation import VectorOrientationTask
+from fallbench.dynamics.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.posture import PostureTask
+from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
+from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
+from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.world import World
@@ -131,12 +131,12 @@ class ReshapeController:
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
         terms = model_terms(self.P, q, v, points)
-        torso_rotation = self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation
+        torso_rotation = world.robot.torso_frame(self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation)
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
         facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"
         lateral_target = np.cross(UP, direction) * (1.0 if facing == "front" else -1.0)
-        orientation = VectorOrientationTask(world.robot.torso_body, np.array([0.0, 1.0, 0.0]), lateral_target)
+        orientation = VectorOrientationTask(world.robot.torso_body, world.robot.torso_axis("left"), lateral_target)
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)

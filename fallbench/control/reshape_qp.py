@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import LAMBDA_SCALE, QDD_BOUND, ModelTerms
-from fallbench.control.contacts import ContactPoint, cone_matrix, normal_matrix
-from fallbench.control.dense_qp import ScaledQP
-from fallbench.control.model import PinocchioModel
+from fallbench.dynamics.contacts import ContactPoint, cone_matrix, normal_matrix
+from fallbench.dynamics.dense_qp import ScaledQP
+from fallbench.dynamics.model import PinocchioModel
 
 LIMIT_HORIZON_STEPS = 4  # control steps over which joint limits are respected
 

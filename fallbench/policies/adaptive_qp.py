@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import QPConfig, solve_step
-from fallbench.control.dense_qp import DenseQP
-from fallbench.control.contacts import environment_contacts
-from fallbench.control.model import pinocchio_for
-from fallbench.control.tasks.com import ComTask
+from fallbench.dynamics.dense_qp import DenseQP
+from fallbench.dynamics.contacts import environment_contacts
+from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.tasks.com import ComTask
 from fallbench.policies.base import GainPolicy, Observation
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand

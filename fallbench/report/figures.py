@@ -1,5 +1,6 @@
 """Figures of 002 Sec. VI for one scenario point: IMU z (Fig. 6a), right knee (Fig. 6b),
-right-leg pitch torques (Fig. 4) and the adaptive gains K, B (Fig. 5)."""
+right-leg pitch torques (Fig. 4) and the adaptive gains K, B (Fig. 5). `leg` maps "hip", "knee",
+"ankle" to the robot's right-leg pitch joints (RobotDescription.leg_pitch)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,6 @@ import matplotlib.pyplot as plt
 import pandas as pd
 
 from fallbench.report.style import colour, ordered
-
-RIGHT_LEG_PITCH = {"hip": "leg_right_3_joint", "knee": "leg_right_4_joint", "ankle": "leg_right_5_joint"}
-
 
 def _impact_line(ax, impact: float) -> None:
     if pd.notna(impact):
@@ -47,8 +45,8 @@ def imu_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, 
 
 
 def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits: tuple[float, float], title: str,
-                out: Path, stem: str) -> list[Path]:
-    fig, ax = _policy_lines(series, rows, f"q:{RIGHT_LEG_PITCH['knee']}")
+                out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
+    fig, ax = _policy_lines(series, rows, f"q:{leg['knee']}")
     for limit in knee_limits:
         ax.axhline(limit, color="black", linestyle=":", linewidth=1.0)
     ax.text(0.01, knee_limits[1], " knee limit", va="bottom", transform=ax.get_yaxis_transform())
@@ -58,13 +56,13 @@ def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits
 
 
 def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_limits: dict[str, float], title: str,
-                  out: Path, stem: str) -> list[Path]:
+                  out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
     policies = ordered(series)
     fig, axes = plt.subplots(len(policies), 1, figsize=(7, 2.2 * len(policies)), sharex=True, squeeze=False)
     styles = {"hip": "-", "knee": "--", "ankle": ":"}
     for ax, policy in zip(axes[:, 0], policies):
         ts = series[policy]
-        for part, joint in RIGHT_LEG_PITCH.items():
+        for part, joint in leg.items():
             ax.plot(ts.t, ts[f"tau:{joint}"], color=colour(policy), linestyle=styles[part], label=f"{part} pitch")
             limit = torque_limits[joint]
             ax.axhline(limit, color="grey", linestyle="--", linewidth=0.6)
@@ -78,10 +76,10 @@ def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_li
     return _save(fig, out, stem)
 
 
-def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str) -> list[Path]:
+def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
     fig, (ax_k, ax_b) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
     styles = {"hip": "-", "knee": "--", "ankle": ":"}
-    for part, joint in RIGHT_LEG_PITCH.items():
+    for part, joint in leg.items():
         ax_k.plot(ts.t, ts[f"K:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
         ax_b.plot(ts.t, ts[f"B:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
     for ax in (ax_k, ax_b):

@@ -10,34 +10,35 @@ import numpy as np
 import pandas as pd
 
 from fallbench import store
+from fallbench.robots import get_robot
 from fallbench.report.figures import _save
+from fallbench.report.grouping import with_robot
 from fallbench.report.style import STRATEGY_LINES
 
 DIRECTION = "param:push.direction"
 STRATEGY_COLOURS = {"none": "#7f7f7f", "reshape": "#2ca02c"}
-TRAJECTORY_JOINTS = {"torso_1_joint": "torso yaw", "arm_left_1_joint": "left shoulder pitch", "arm_left_4_joint": "left elbow",
-                     "arm_left_6_joint": "left wrist pitch", "leg_right_4_joint": "right knee"}
 TIMELINE_GROUPS = ("feet", "knees", "hands", "arms", "torso", "head")
 SHORT_LABELS = {"front": "front", "back": "back", "side": "side", "front diagonal": "fr. diag.", "back diagonal": "bk. diag."}
 
 
 def push_label(direction: float) -> str:
-    """The fall a push from half-sitting starts (robot facing +x): front, back, side or diagonal."""
+    """The fall a push from the nominal stance starts (robot facing +x): front, back, side or diagonal."""
     angle = direction % 360
     return {0: "front", 180: "back", 90: "side", 270: "side"}.get(angle, "front diagonal" if angle < 90 or angle > 270 else "back diagonal")
 
 
 def first_impact_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per push class and strategy: where the first impact lands, and head and torso peak forces."""
+    """Per robot, push class and strategy: where the first impact lands, and head and torso peak forces."""
+    runs = with_robot(runs)
     pushes = runs[(runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")]
     if DIRECTION not in pushes or pushes.empty:
         return pd.DataFrame()
     pushes = pushes.assign(fall=pushes[DIRECTION].map(push_label))
     rows = []
-    for (fall, strategy), group in pushes.groupby(["fall", "pre_impact"]):
+    for (robot, fall, strategy), group in pushes.groupby(["robot", "fall", "pre_impact"]):
         first = group.first_impact_group
         rows.append({
-            "push": fall, "pre_impact": strategy, "falls": len(group),
+            "robot": robot, "push": fall, "pre_impact": strategy, "falls": len(group),
             "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
             "first on knees (%)": round(100 * first.str.contains("knees").mean()),
             "first on arms/elbows (%)": round(100 * first.str.contains("arms").mean()),
@@ -50,12 +51,13 @@ def first_impact_table(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def clutter_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per obstacle scenario and strategy: landing error, obstacle contacts, head and torso peaks."""
+    """Per robot, obstacle scenario and strategy: landing error, obstacle contacts, head and torso peaks."""
+    runs = with_robot(runs)
     cluttered = runs[(runs.status == "ok") & (runs.obstacle_force_peak.notna()) & ~runs.scenario.str.startswith(("push", "drop", "ci_"))]
     rows = []
-    for (scenario, strategy), group in cluttered.groupby(["scenario", "pre_impact"]):
+    for (robot, scenario, strategy), group in cluttered.groupby(["robot", "scenario", "pre_impact"]):
         rows.append({
-            "scenario": scenario, "pre_impact": strategy, "runs": len(group),
+            "robot": robot, "scenario": scenario, "pre_impact": strategy, "runs": len(group),
             "landing error median (m)": round(group.landing_error.median(), 3),
             "landing error max (m)": round(group.landing_error.max(), 3),
             "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
@@ -85,7 +87,7 @@ def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
         ax.set(xlabel="push direction (deg, 0 = robot forward)", title=title)
         ax.grid(alpha=0.3, axis="y")
     fig.legend(*axes[0].get_legend_handles_labels(), title="pre-impact", loc="upper right", ncol=2, fontsize=8)
-    fig.suptitle(f"Pushes from half-sitting: none vs reshape ({len(pushes)} runs that fell, all gain policies)")
+    fig.suptitle(f"Pushes from the nominal stance: none vs reshape ({len(pushes)} runs that fell, all gain policies)")
     return _save(fig, out, "preimpact_first_impact")
 
 
@@ -97,7 +99,7 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     series = {s: store.load_timeseries(results, rows.loc[s, "run_id"]) for s in ("none", "reshape")}
     fig, axes = plt.subplots(1, 2, figsize=(15, 4.5), gridspec_kw={"width_ratios": [3, 2]})
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for (joint, label), c in zip(TRAJECTORY_JOINTS.items(), colours):
+    for (joint, label), c in zip(get_robot(rows.loc["reshape", "robot"]).trajectory_joints.items(), colours):
         for strategy, ts in series.items():
             axes[0].plot(ts.t, ts[f"q:{joint}"], color=c, linestyle=STRATEGY_LINES[strategy],
                          label=f"{label} ({strategy})" if strategy == "reshape" else None)
@@ -124,8 +126,10 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
 
 def preimpact_report(runs: pd.DataFrame, results: Path, out: Path) -> tuple[list[Path], dict[str, pd.DataFrame]]:
     paths = first_impact_figure(runs, out)
-    for point in ("push_200N[push.direction=0]#s0", "push_200N[push.direction=180]#s0"):
-        paths += reshaped_fall_figure(runs, results, out, point, "stiff")
+    front_back = runs[(runs.scenario == "push_200N") & (runs.seed == 0)]
+    if DIRECTION in front_back:
+        for point in sorted(front_back.loc[front_back[DIRECTION].isin([0, 180]), "point"].unique()):
+            paths += reshaped_fall_figure(runs, results, out, point, "stiff")
     tables = {"First impact and head/torso peak forces of pushes, per push direction": first_impact_table(runs),
               "Landing among obstacles": clutter_table(runs)}
     return paths, tables

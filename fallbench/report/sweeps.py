@@ -9,6 +9,8 @@ import numpy as np
 import pandas as pd
 
 from fallbench.report.figures import _save
+from fallbench.report.grouping import with_robot
+from fallbench.robots import DEFAULT_ROBOT
 from fallbench.report.style import STRATEGY_LINES, colour, ordered
 
 KEY_METRICS = {
@@ -41,11 +43,12 @@ def distribution_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
 def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
     """For each scenario family with a numeric sweep: metric medians against the swept value."""
     paths: list[Path] = []
+    runs = with_robot(runs)
     params = [c for c in runs.columns if c.startswith("param:")]
-    for scenario, group in runs.groupby("scenario"):
+    for (robot, scenario), group in runs.groupby(["robot", "scenario"]):
         for param in params:
             values = group[param].dropna()
-            if values.nunique() < 2 or not np.issubdtype(values.dtype, np.number):
+            if values.nunique() < 2 or not pd.api.types.is_numeric_dtype(values):  # string parameters (a forced mode) have no axis
                 continue
             fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
             for ax, metric in zip(axes, ["imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max"]):
@@ -56,8 +59,9 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
                 ax.set(xlabel=_axis(param), ylabel=KEY_METRICS[metric], title=KEY_METRICS[metric].split(" (")[0])
                 ax.grid(alpha=0.3)
             axes[0].legend(fontsize=8)
-            fig.suptitle(f"{scenario}: metrics vs {param.removeprefix('param:')} (median over the other sweep keys)")
-            paths += _save(fig, out, f"sweep_{scenario}_{param.removeprefix('param:').replace('.', '_')}")
+            fig.suptitle(f"{robot} {scenario}: metrics vs {param.removeprefix('param:')} (median over the other sweep keys)")
+            stem = f"sweep_{scenario}_{param.removeprefix('param:').replace('.', '_')}"
+            paths += _save(fig, out, stem if robot == DEFAULT_ROBOT else f"{stem}_{robot}")
     return paths
 
 
@@ -68,7 +72,8 @@ def _axis(param: str) -> str:
 
 
 def median_table(runs: pd.DataFrame) -> pd.DataFrame:
-    grouped = runs.groupby(["scenario", "pre_impact", "policy"])
+    runs = with_robot(runs)
+    grouped = runs.groupby(["robot", "scenario", "pre_impact", "policy"])
     table = grouped[list(KEY_METRICS)].median(numeric_only=True)
     table.insert(0, "runs", grouped.size())
     table.insert(1, "failed", grouped.apply(lambda g: int((g.status != "ok").sum()), include_groups=False))

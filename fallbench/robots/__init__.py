@@ -6,9 +6,11 @@ from functools import cache
 from typing import Callable
 
 from fallbench.robots.description import RobotDescription
+from fallbench.robots.g1 import g1
 from fallbench.robots.talos import talos
 
-ROBOTS: dict[str, Callable[[], RobotDescription]] = {"talos": talos}
+ROBOTS: dict[str, Callable[[], RobotDescription]] = {"talos": talos, "g1": g1}
+DEFAULT_ROBOT = "talos"  # what a scenario without a `robot` key runs on
 
 
 @cache

@@ -1,11 +1,22 @@
-"""What fallbench needs to know about a robot, independent of the simulator."""
+"""What fallbench needs to know about a robot, independent of the simulator.
+
+Everything robot-specific the rest of the code uses is a field here: no module outside
+`fallbench/robots/` names a joint or body of a particular robot (tests/test_robot_names.py).
+"""
 
 from __future__ import annotations
 
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
+
+import numpy as np
+
+SIDES = ("left", "right")
+LEG_PITCH_PARTS = ("hip", "knee", "ankle")
+DEFAULT_POSTURE = "default"  # every robot's nominal stance
 
 
 @dataclass(frozen=True)
@@ -31,26 +42,32 @@ class Arm:
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """A robot: its URDF/SRDF, named postures, default gains and the bodies metrics talk about."""
+    """A robot: its URDF (and SRDF), named postures, default gains and the bodies metrics talk about."""
 
     name: str
     urdf_path: Path
-    srdf_path: Path
     mesh_root: Path  # folder that `package://<package_prefix>` URIs point into
     package_prefix: str
     version: str  # version of the package that ships the description
     root_body: str
     torso_body: str  # body whose tilt detects falls and which is pushed by default
-    imu_body: str
-    knee_joints: tuple[str, ...]
+    imu_body: str  # the accelerometer sits at this body's origin, axes aligned with it
     gain_groups: tuple[GainGroup, ...]
-    body_groups: dict[str, tuple[str, ...]]  # metric group -> bodies (feet, knees, hands, ...)
+    body_groups: dict[str, tuple[str, ...]]  # metric group -> bodies (feet, knees, hands, arms, torso, head)
+    legs: dict[str, tuple[str, ...]]  # "left"/"right" -> joints from the hip to the ankle
+    arms: dict[str, Arm]  # "left"/"right" -> names
+    leg_pitch_joints: dict[str, tuple[str, str]]  # "hip"/"knee"/"ankle" -> (left, right) pitch joints
+    timeseries_joints: tuple[str, ...]  # joints whose angle and torque every run stores
+    trajectory_joints: dict[str, str]  # joint -> label, drawn in the reshaped-fall figure
+    vulnerable_bodies: tuple[str, ...]  # parts a contact damages (sensors, hands): head, grippers
+    srdf_path: Path | None = None
     armature: dict[str, float] = field(default_factory=dict)  # joint -> kg m^2 reflected rotor inertia
-    postures: dict[str, dict[str, float]] = field(default_factory=dict)
-    posture_base_height: dict[str, float] = field(default_factory=dict)
-    disabled_collisions: tuple[tuple[str, str], ...] = ()
-    arms: dict[str, Arm] = field(default_factory=dict)  # "left"/"right" -> names
-    leg_pitch_joints: dict[str, tuple[str, ...]] = field(default_factory=dict)  # "hip"/"knee"/"ankle" -> both legs
+    postures: dict[str, dict[str, float]] = field(default_factory=dict)  # must hold `default`
+    posture_base_height: dict[str, float] = field(default_factory=dict)  # m, root height standing in a posture
+    disabled_collisions: tuple[tuple[str, str], ...] = ()  # body pairs that never collide
+    # Columns: the robot's forward, left and up directions in the torso body's frame.
+    torso_axes: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    feet: dict[str, str] = field(default_factory=dict)  # "left"/"right" -> the foot body that carries the sole
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine."""
@@ -62,6 +79,41 @@ class RobotDescription:
             if re.fullmatch(group.pattern, joint):
                 return group.kp, group.kd
         raise KeyError(f"robot {self.name!r}: no default gains for joint {joint!r}")
+
+    @property
+    def knee_joints(self) -> tuple[str, str]:
+        return self.leg_pitch_joints["knee"]
+
+    @property
+    def leg_joints(self) -> tuple[str, ...]:
+        return tuple(joint for side in SIDES for joint in self.legs[side])
+
+    def leg_pitch(self, side: str) -> dict[str, str]:
+        """"hip"/"knee"/"ankle" -> the pitch joint of one leg."""
+        return {part: self.leg_pitch_joints[part][SIDES.index(side)] for part in LEG_PITCH_PARTS}
+
+    @property
+    def contact_candidates(self) -> tuple[str, ...]:
+        """Bodies whose contacts with the environment are sensed (those with collision geometry)."""
+        return tuple(body for bodies in self.body_groups.values() for body in bodies)
+
+    def torso_frame(self, rotation: np.ndarray) -> np.ndarray:
+        """World rotation of the torso body -> columns forward, left, up of the robot in the world."""
+        return rotation @ np.array(self.torso_axes).T
+
+    def torso_axis(self, name: str) -> np.ndarray:
+        """"forward"/"left"/"up" in the torso body's frame."""
+        return np.array(self.torso_axes[("forward", "left", "up").index(name)])
+
+    @cached_property
+    def mass(self) -> float:
+        """kg, sum of the URDF's link masses."""
+        return sum(float(m.attrib["value"]) for m in ET.fromstring(self.urdf_path.read_text()).iter("mass"))
+
+    @property
+    def standing_height(self) -> float:
+        """m, root height standing in `default`: the robot's length scale."""
+        return self.posture_base_height[DEFAULT_POSTURE]
 
 
 def read_srdf_postures(srdf_path: Path) -> tuple[dict[str, dict[str, float]], dict[str, float]]:

@@ -6,6 +6,8 @@ from importlib.metadata import distribution, version
 from pathlib import Path
 
 from fallbench.robots.description import (
+    DEFAULT_POSTURE,
+    SIDES,
     Arm,
     GainGroup,
     RobotDescription,
@@ -47,15 +49,29 @@ TALOS_BODY_GROUPS: dict[str, tuple[str, ...]] = {
 }
 
 
-def _data_root() -> Path:
+# Joints whose angle and torque every run stores: the right leg's pitch joints (Figs. 4-6 of 002),
+# the left knee, and the joints of the reshaped-fall figure.
+TALOS_TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint",
+                           "torso_1_joint", "arm_left_1_joint", "arm_left_4_joint", "arm_left_6_joint", "arm_right_4_joint")
+TALOS_TRAJECTORY_JOINTS = {"torso_1_joint": "torso yaw", "arm_left_1_joint": "left shoulder pitch",
+                           "arm_left_4_joint": "left elbow", "arm_left_6_joint": "left wrist pitch",
+                           "leg_right_4_joint": "right knee"}
+# Parts a contact damages: the head (cameras) and the grippers.
+TALOS_VULNERABLE = ("head_1_link", "head_2_link", "rgbd_link") + tuple(
+    body for body in TALOS_BODY_GROUPS["hands"] if body.startswith("gripper_"))
+
+
+def data_root() -> Path:
+    """example-robot-data's robots folder (TALOS and G1 come from it)."""
     dist = distribution("example-robot-data")
     return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
 
 
 def talos() -> RobotDescription:
-    root = _data_root()
+    root = data_root()
     srdf = root / "talos_data/srdf/talos.srdf"
     postures, heights = read_srdf_postures(srdf)
+    postures[DEFAULT_POSTURE], heights[DEFAULT_POSTURE] = postures["half_sitting"], heights["half_sitting"]
     return RobotDescription(
         name="talos",
         urdf_path=root / "talos_data/robots/talos_reduced_box.urdf",
@@ -66,7 +82,6 @@ def talos() -> RobotDescription:
         root_body="base_link",
         torso_body="torso_2_link",
         imu_body="base_link",  # waist IMU, z up (the real IMU link is on the torso, z down)
-        knee_joints=("leg_left_4_joint", "leg_right_4_joint"),
         gain_groups=TALOS_GAINS,
         body_groups=TALOS_BODY_GROUPS,
         armature=read_srdf_armature(srdf),
@@ -75,6 +90,11 @@ def talos() -> RobotDescription:
         disabled_collisions=read_srdf_disabled_collisions(srdf),
         arms={side: Arm(f"arm_{side}_1_joint", f"arm_{side}_4_joint", f"arm_{side}_7_joint", f"arm_{side}_7_link",
                         f"arm_{side}_6_joint", f"gripper_{side}_base_link") for side in ("left", "right")},
+        legs={side: tuple(f"leg_{side}_{i}_joint" for i in range(1, 7)) for side in SIDES},
         leg_pitch_joints={"hip": ("leg_left_3_joint", "leg_right_3_joint"), "knee": ("leg_left_4_joint", "leg_right_4_joint"),
                           "ankle": ("leg_left_5_joint", "leg_right_5_joint")},
+        feet={side: f"leg_{side}_6_link" for side in ("left", "right")},
+        timeseries_joints=TALOS_TIMESERIES_JOINTS,
+        trajectory_joints=TALOS_TRAJECTORY_JOINTS,
+        vulnerable_bodies=TALOS_VULNERABLE,
     )

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from fallbench.control.model import PinocchioModel
-from fallbench.control.tasks.body_point import points_kinematics
+from fallbench.dynamics.model import PinocchioModel
+from fallbench.dynamics.tasks.body_point import points_kinematics
 
 
 @dataclass

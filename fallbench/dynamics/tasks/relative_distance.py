@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from fallbench.control.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.body_point import BodyPoint
 
 
 @dataclass

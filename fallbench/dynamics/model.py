@@ -8,11 +8,22 @@ is in the world frame; Pinocchio's is (x, y, z, w) and its base velocity is in t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
+import mujoco
 import numpy as np
 import pinocchio as pin
 
-from fallbench.world import World
+from fallbench.robots.description import RobotDescription
+
+
+class SimulatedRobot(Protocol):
+    """What the model needs from a simulated robot (the simulator's world satisfies it): the robot
+    description, the compiled MuJoCo model (joint addresses, rotor armature) and the actuated joints."""
+
+    robot: RobotDescription
+    model: mujoco.MjModel
+    joint_names: tuple[str, ...]
 
 
 @dataclass
@@ -37,7 +48,7 @@ class PinocchioModel:
         return q, v
 
 
-def build_pinocchio(world: World) -> PinocchioModel:
+def build_pinocchio(world: SimulatedRobot) -> PinocchioModel:
     robot = world.robot
     model = pin.buildModelFromXML(robot.urdf_text(), pin.JointModelFreeFlyer())
     mj = world.model
@@ -55,7 +66,7 @@ def build_pinocchio(world: World) -> PinocchioModel:
 _PINOCCHIO: dict[int, PinocchioModel] = {}
 
 
-def pinocchio_for(world: World) -> PinocchioModel:
+def pinocchio_for(world: SimulatedRobot) -> PinocchioModel:
     """One Pinocchio model per compiled world in this process (worlds are cached and kept alive)."""
     if id(world) not in _PINOCCHIO:
         _PINOCCHIO[id(world)] = build_pinocchio(world)

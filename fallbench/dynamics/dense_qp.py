@@ -1,11 +1,38 @@
-"""One ProxSuite dense solver reused across control steps while the problem's sizes stay the same."""
+"""The one ProxSuite wrapper of both QPs: a dense solver reused while the problem's sizes stay the same.
+
+Determinism: ProxSuite's AVX2 and AVX-512 builds (the ones `import proxsuite` picks on this kind of
+machine) return different solution bits for the same problem depending on where the heap placed the
+solver's workspace (measured with ProxSuite 0.8.0: identical problems and calls, only an unrelated
+allocation before the solver's creation changed, gave different iterates). Heap layout differs from
+one process to the next, so a QP-driven run was not bit-reproducible. The plain SSE2 build does not
+depend on it and is as fast on these small problems, so it is the one loaded here.
+"""
 
 from __future__ import annotations
 
+import sys
+import types
 from dataclasses import dataclass
 
 import numpy as np
-import proxsuite
+
+
+def _load_plain_proxsuite() -> types.ModuleType:
+    """`proxsuite` with its SSE2 build: its loader picks the widest instruction set it finds, so
+    it is told there is none wider before it runs (only if proxsuite is not loaded yet)."""
+    if "proxsuite" not in sys.modules:
+        probe = types.ModuleType("proxsuite.instructionset")
+        probe.has_AVX512F = probe.has_AVX2 = lambda: False  # type: ignore[attr-defined]
+        sys.modules["proxsuite.instructionset"] = probe
+    import proxsuite
+
+    if proxsuite.proxqp.__name__ != "proxsuite.proxsuite_pywrap.proxqp":
+        raise ImportError(f"proxsuite was imported before fallbench.dynamics.dense_qp and loaded {proxsuite.proxqp.__name__}, "
+                          "whose results depend on memory placement; import fallbench first")
+    return proxsuite
+
+
+proxsuite = _load_plain_proxsuite()
 
 
 @dataclass

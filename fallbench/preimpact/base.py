@@ -1,0 +1,67 @@
+"""The small interface every pre-impact strategy implements (what the robot does between fall
+detection and impact).
+
+The episode calls, in order: `start` once at fall detection; `step` every control step until every
+motor has switched to the gain policy; `planned_contacts` every control step, so that a contact the
+strategy meant to make (a footstep) is not taken for an impact; and after the episode `stats` (controller
+figures) and `metrics` (outcome figures computed from the recording). Every call gets MuJoCo's
+state; strategies read the robot description through `world.robot`, never a joint name.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from fallbench.servo import ServoCommand
+
+if TYPE_CHECKING:
+    from fallbench.episode import Recording
+    from fallbench.scenario import Scenario
+    from fallbench.world import World
+
+
+class Strategy(ABC):
+    """One pre-impact strategy for one episode. Subclasses set `name` and `defaults`."""
+
+    name: str = ""
+    defaults: dict[str, Any] = {}  # parameters under `policy_params.<name>`, with their default values
+    # True: each motor switches to the gain policy when its own chain touches down (002 Sec. V);
+    # False: every motor switches at the first impact.
+    per_chain_switching: bool = False
+
+    def __init__(self, world: "World", scenario: "Scenario") -> None:
+        params = scenario.policy_params.get(self.name, {})
+        unknown = set(params) - set(self.defaults)
+        if unknown:
+            raise ValueError(f"strategy {self.name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
+                             f"known: {', '.join(sorted(self.defaults)) or 'none'}")
+        self.world, self.scenario = world, scenario
+        self.params = {**self.defaults, **params}
+
+    @abstractmethod
+    def start(self, t: float, data: mujoco.MjData) -> None:
+        """At fall detection (t in s)."""
+
+    @abstractmethod
+    def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None:
+        """One control step after fall detection: the servo command, or None to keep the current one."""
+
+    def planned_contacts(self) -> set[str]:
+        """Robot bodies whose new contacts with the environment are planned (not impacts)."""
+        return set()
+
+    def landing_target(self, side: str, t: float) -> np.ndarray | None:
+        """The point (m, world) this arm's hand was aimed at, last chosen at or before t, if any."""
+        return None
+
+    def stats(self) -> dict[str, Any]:
+        """Per-episode controller figures (timings, failures) stored with the metrics."""
+        return {}
+
+    def metrics(self, recording: "Recording") -> dict[str, Any]:
+        """Per-episode outcome figures computed after the run from its recording."""
+        return {}

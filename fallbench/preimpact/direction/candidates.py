@@ -1,0 +1,123 @@
+"""The candidate strategies of 004 (Secs. I, IV-B, V) and their predicted fall directions.
+
+No Action keeps the support polygon; Lift a Leg leaves the stance foot's sole; Take a Step moves
+one foot, over a grid of targets, and the support becomes the hull of both soles. The robot tips
+about the polygon's boundary point nearest the capture point (pendulum.py). A step changes the
+support only when it lands: its prediction follows No Action's pendulum until then, and a target
+is kept only if the foot gets there in half No Action's fall time and lands clear of the objects.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fallbench.events import capture_point, support_polygon
+from fallbench.preimpact.direction.geometry import Circle
+from fallbench.preimpact.direction.pendulum import Rollout, rollout
+from fallbench.preimpact.direction.support import contains, nearest_pivot
+
+
+@dataclass(frozen=True)
+class StepGrid:
+    radii: np.ndarray  # m, step lengths from the swing foot's current centre
+    headings: np.ndarray  # rad, world
+    foot_speed: float  # m/s, mean swing-foot speed
+    min_separation: float  # m between the two feet's centres after the step
+    max_separation: float  # m, the maximum leg spread
+
+
+@dataclass
+class Candidate:
+    kind: str  # no_action | lift_leg | take_step
+    swing: str | None  # side of the moving foot
+    target: np.ndarray | None  # m, (2,) swing-foot centre after a step
+    polygon: np.ndarray  # support polygon once the strategy is in place
+    direction: float = math.nan  # rad, predicted theta_f
+    fall_time: float = math.nan  # s to touchdown
+    score: float = math.inf
+    capturing: bool = False  # the capture point lies inside the new polygon (the fall would stop)
+
+    @property
+    def name(self) -> str:
+        return self.kind if self.swing is None else f"{self.kind}_{self.swing}"
+
+
+@dataclass(frozen=True)
+class FallState:
+    com: np.ndarray  # m, (3,)
+    velocity: np.ndarray  # m/s, (3,)
+    floor_z: float  # m
+    touchdown_height: float  # m above the floor
+
+
+def _predict(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, state: FallState) -> tuple[Rollout, np.ndarray]:
+    """Pendulum rollouts about each polygon's pivot; and whether the capture point is inside it."""
+    pivots, edges, inside = [], [], []
+    for polygon, com, velocity in zip(polygons, coms, velocities):
+        xi = capture_point(com, velocity)
+        pivot = nearest_pivot(polygon, xi)
+        pivots.append(pivot.point)
+        edges.append(np.zeros(2) if pivot.edge is None else pivot.edge)
+        inside.append(contains(polygon, xi))
+    return rollout(np.array(pivots), np.array(edges), coms, velocities, state.floor_z, state.touchdown_height), np.array(inside)
+
+
+def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:
+    """Whether a disc of radius `reach` at `point` stays outside every (ungrown) object circle."""
+    return all(float(np.linalg.norm(point - c.centre)) > c.radius + reach for c in objects)
+
+
+def step_targets(soles: dict[str, np.ndarray], swing: str, grid: StepGrid, objects: list[Circle]) -> list[np.ndarray]:
+    """Grid targets for the swing foot's centre within the leg spread and clear of the objects."""
+    stance = next(s for s in soles if s != swing)
+    centre, other = soles[swing].mean(axis=0), soles[stance].mean(axis=0)
+    reach = float(np.linalg.norm(soles[swing][0] - centre))
+    targets = []
+    for r in grid.radii:
+        for heading in grid.headings:
+            target = centre + r * np.array([math.cos(heading), math.sin(heading)])
+            separation = float(np.linalg.norm(target - other))
+            if grid.min_separation <= separation <= grid.max_separation and clear_of(target, reach, objects):
+                targets.append(target)
+    return targets
+
+
+def evaluate(soles: dict[str, np.ndarray], state: FallState, grid: StepGrid, objects: list[Circle]) -> tuple[list[Candidate], Rollout]:
+    """Every candidate with its predicted direction and fall time (scores are set by the caller),
+    and No Action's rollout (for plots)."""
+    both = support_polygon(np.vstack(list(soles.values())))
+    fixed = [Candidate("no_action", None, None, both)]
+    fixed += [Candidate("lift_leg", side, None, soles[other]) for side, other in (("left", "right"), ("right", "left"))]
+    start = np.repeat(state.com[None], len(fixed), axis=0)
+    start_v = np.repeat(state.velocity[None], len(fixed), axis=0)
+    fixed_roll, fixed_inside = _predict([c.polygon for c in fixed], start, start_v, state)
+    for k, candidate in enumerate(fixed):
+        candidate.direction, candidate.fall_time = float(fixed_roll.direction[k]), float(fixed_roll.time[k])
+        candidate.capturing = bool(fixed_inside[k])
+    no_action = fixed_roll
+    steps: list[Candidate] = []
+    coms, vels = [], []
+    deadline = 0.5 * fixed[0].fall_time
+    for swing in soles:
+        stance = next(s for s in soles if s != swing)
+        for target in step_targets(soles, swing, grid, objects):
+            travel = float(np.linalg.norm(target - soles[swing].mean(axis=0))) / grid.foot_speed
+            if travel > deadline:
+                continue
+            moved = soles[swing] + (target - soles[swing].mean(axis=0))
+            steps.append(Candidate("take_step", swing, target, support_polygon(np.vstack([soles[stance], moved]))))
+            at = min(int(round(travel / no_action.dt)), int(no_action.touchdown_step[0]))
+            coms.append(no_action.com[0, at])
+            vels.append(no_action.velocity[0, at])
+            steps[-1].fall_time = travel  # completed below: time on No Action's pendulum until landing
+    if steps:
+        roll, inside = _predict([c.polygon for c in steps], np.array(coms), np.array(vels), state)
+        for k, candidate in enumerate(steps):
+            end = roll.end[k, :2] - state.com[:2]
+            candidate.direction = math.atan2(end[1], end[0]) % (2 * math.pi)
+            candidate.fall_time += float(roll.time[k])
+            candidate.capturing = bool(inside[k])
+    return fixed + steps, no_action

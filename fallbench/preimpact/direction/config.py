@@ -1,0 +1,41 @@
+"""Parameters of the `direction` strategy (`policy_params.direction`); 004 hand-tuned and did not
+report most of them, so they are exposed here (README)."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class DirectionConfig:
+    mode: str = "auto"  # auto, or a forced no_action | lift_leg | take_step | take_step_pis | whole_body_is
+    selection: str = "cascade"  # cascade (NA -> LL -> TS, first safe) | argmin (best score)
+    robot_radius: float = 0.45  # m, half the maximum leg spread
+    consider_factor: float = 1.5  # objects within this times the robot height count
+    robot_height: float = 1.7  # m
+    w1: float = 0.5  # eq. 4; w2 = 1 - w1
+    trigger_window: int = 8  # capture points tested for collinearity (control steps)
+    trigger_tolerance: float = 0.003  # m RMS off their line
+    trigger_min_travel: float = 0.01  # m along the line
+    trigger_timeout: float = 0.2  # s after the fall trigger
+    touchdown_fraction: float = 0.35  # CoM height at touchdown / standing CoM height
+    lift_height: float = 0.08  # m, Lift a Leg and the step's swing clearance
+    step_radius_min: float = 0.15  # m, step grid from the swing foot's centre
+    step_radius_max: float = 0.6  # m
+    step_radius_step: float = 0.05  # m
+    step_heading_step: float = 15.0  # deg
+    min_foot_separation: float = 0.2  # m between the feet's centres
+    foot_speed: float = 1.0  # m/s, mean swing-foot speed (reachability) and its cap
+    step_gain: float = 20.0  # 1/s, eq. 5
+    inertia_gain: float = 10.0  # 1/s, eqs. 6 and 8
+    damping: float = 1e-3  # damped pseudo-inverses
+    step_tolerance: float = 0.05  # m: a step is complete when the sole lands this close to its target
+    allow_capture: bool = False  # keep steps whose polygon holds the capture point (004's falls are certain)
+
+    @property
+    def w2(self) -> float:
+        return 1.0 - self.w1
+
+
+DIRECTION_PARAMS = {f.name: f.default for f in dataclasses.fields(DirectionConfig)}

@@ -1,0 +1,81 @@
+"""How a fall among objects ended, for every run with obstacles (so that `none` compares with
+`direction`): whether and how close the robot came to an object, and the actual fall direction
+against the safe regions of 004 (measured from the CoM's ground projection at the control trigger,
+or at the fall trigger for strategies without one, to that at touchdown)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from fallbench.preimpact.direction.config import DirectionConfig
+from fallbench.preimpact.direction.geometry import angle_between, grown_circles, safe_regions
+from fallbench.preimpact.direction.scoring import score
+
+if TYPE_CHECKING:
+    from fallbench.episode import Recording
+
+CLEARANCE_RANGE = 2.0  # m: distances beyond this are reported as this
+
+
+def com_path(rec: "Recording", every: int = 1) -> np.ndarray:
+    """(samples, 3) whole-robot CoM, m, world, from the recorded states."""
+    model, world = rec.world.model, rec.world
+    data = mujoco.MjData(model)
+    path = np.empty((len(rec.qpos[::every]), 3))
+    for k, qpos in enumerate(rec.qpos[::every]):
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        path[k] = data.subtree_com[world.root_body]
+    return path
+
+
+def clearance(rec: "Recording", sample: int) -> float:
+    """Smallest distance (m) between the robot's geoms and the obstacles at one recorded sample;
+    0 or less when touching."""
+    model = rec.world.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = rec.qpos[sample]
+    mujoco.mj_kinematics(model, data)
+    obstacles = [g for g in range(model.ngeom) if model.geom(g).name.startswith("obstacle_")]
+    robot = [g for g in range(model.ngeom) if model.geom_bodyid[g] != 0]
+    fromto = np.zeros(6)
+    return min((mujoco.mj_geomDistance(model, data, g, o, CLEARANCE_RANGE, fromto) for o in obstacles for g in robot),
+               default=math.nan)
+
+
+def obstacle_metrics(rec: "Recording", origin_time: float | None) -> dict[str, Any]:
+    """obstacle_hit, obstacle_clearance_at_impact, actual fall direction and whether it lies in a
+    safe region, n_safe_regions; origin_time: s, the control (or fall) trigger."""
+    world, scenario = rec.world, rec.scenario
+    config = DirectionConfig(**scenario.policy_params.get("direction", {}))
+    found = [world.sensor(rec.sensordata, name)[:, 0] > 0 for name in world.obstacle_sensors]
+    row: dict[str, Any] = {"obstacle_hit": bool(any(f.any() for f in found))}
+    impact = rec.impact_events[0].t if rec.impact_events else rec.time[-1]
+    row["obstacle_clearance_at_impact"] = clearance(rec, min(int(np.searchsorted(rec.time, impact)), len(rec.time) - 1))
+    nan = {"actual_fall_direction_deg": math.nan, "actual_in_safe_region": False, "actual_score": math.nan, "n_safe_regions": -1}
+    if origin_time is None or not math.isfinite(origin_time):
+        return row | nan
+    every = max(round(scenario.control_dt / scenario.physics_dt), 1)
+    path = com_path(rec, every)
+    start = min(int(np.searchsorted(rec.time[::every], origin_time)), len(path) - 1)
+    low = np.flatnonzero(path[start:, 2] <= config.touchdown_fraction * path[0, 2])
+    end = start + (int(low[0]) if len(low) else len(path) - 1 - start)
+    origin = path[start, :2]
+    delta = path[end, :2] - origin
+    regions = safe_regions(grown_circles(scenario.obstacles, origin, config.robot_radius,
+                                         config.consider_factor * config.robot_height), origin)
+    direction = math.atan2(delta[1], delta[0]) % (2 * math.pi)
+    row["actual_fall_direction_deg"] = math.degrees(direction)
+    row["actual_in_safe_region"] = any(r.contains(direction) for r in regions)
+    row["actual_score"] = score(direction, regions, config.w1, config.w2)
+    row["n_safe_regions"] = len(regions)
+    return row
+
+
+def direction_error_deg(predicted_deg: float, actual_deg: float) -> float:
+    return math.degrees(angle_between(math.radians(predicted_deg), math.radians(actual_deg)))

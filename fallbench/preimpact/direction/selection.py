@@ -1,0 +1,57 @@
+"""Choosing a strategy (004 Secs. IV-A, V; the paper's rule is lost in extraction and rebuilt
+here): score every candidate's predicted direction; take the best candidate of the first class,
+in the order No Action, Lift a Leg, Take a Step, whose score is at most 1 (safe); if none is safe,
+the best of all. Lift a Leg and Take a Step run with partial inertia shaping; No Action chosen
+while unsafe runs whole-body inertia shaping (Fig. 9). `mode` forces one choice (Fig. 10)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from fallbench.preimpact.direction.candidates import Candidate
+from fallbench.preimpact.direction.geometry import SafeRegion
+from fallbench.preimpact.direction.scoring import desired_direction, score
+
+CLASSES = ("no_action", "lift_leg", "take_step")
+MODES = ("auto", "no_action", "lift_leg", "take_step", "take_step_pis", "whole_body_is")
+SELECTIONS = ("cascade", "argmin")
+
+
+@dataclass
+class Plan:
+    chosen: Candidate
+    inertia_shaping: str  # "" (none), "pis" (partial) or "wbis" (whole body)
+    desired: float | None  # rad, theta_d: the bisector toward which inertia shaping turns the fall
+    candidates: list[Candidate]
+
+    @property
+    def label(self) -> str:
+        """e.g. take_step_right+pis."""
+        return self.chosen.name + (f"+{self.inertia_shaping}" if self.inertia_shaping else "")
+
+
+def _best(candidates: list[Candidate], kind: str) -> Candidate | None:
+    members = [c for c in candidates if c.kind == kind]
+    return min(members, key=lambda c: c.score) if members else None
+
+
+def choose(candidates: list[Candidate], regions: list[SafeRegion], mode: str = "auto", selection: str = "cascade",
+           w1: float = 0.5, w2: float = 0.5, allow_capture: bool = False) -> Plan:
+    for candidate in candidates:
+        candidate.score = score(candidate.direction, regions, w1, w2)
+    usable = [c for c in candidates if c.kind == "no_action" or allow_capture or not c.capturing]
+    no_action = _best(usable, "no_action")
+    assert no_action is not None
+    if mode == "auto":
+        chosen = None
+        if selection == "cascade":
+            chosen = next((best for kind in CLASSES if (best := _best(usable, kind)) is not None and best.score <= 1.0), None)
+        chosen = chosen or min(usable, key=lambda c: c.score)
+        shaping = "pis" if chosen.kind != "no_action" else ("wbis" if chosen.score > 1.0 and math.isfinite(chosen.score) else "")
+    else:
+        kind = {"take_step_pis": "take_step", "whole_body_is": "no_action"}.get(mode, mode)
+        chosen = _best(usable, kind) or no_action
+        shaping = {"take_step_pis": "pis", "whole_body_is": "wbis"}.get(mode, "")
+        shaping = shaping if chosen.kind == kind else ""
+    return Plan(chosen, shaping, desired_direction(chosen.direction, regions), candidates)

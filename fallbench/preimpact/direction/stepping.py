@@ -1,0 +1,38 @@
+"""Stepping by the foot-to-foot Jacobian (004 Sec. IV-B-1, eq. 5):
+theta_dot = J_R^L# (P_dot_R - P_dot_L), here with 6 rows (linear and angular velocity of the
+swing foot relative to the stance foot, world axes) over the swing leg's joints, so that the
+sole also stays flat. The tipping base comes from the measured base pose (an IMU would give it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from fallbench.preimpact.direction.inertia import damped_solve
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def foot_to_foot_jacobian(model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray) -> np.ndarray:
+    """(6, len(columns)): relative twist of the swing foot frame with respect to the stance foot
+    frame per joint velocity. Needs computeJointJacobians and updateFramePlacements."""
+    relative = pin.getFrameJacobian(model, data, swing, LWA) - pin.getFrameJacobian(model, data, stance, LWA)
+    return relative[:, columns]
+
+
+def swing_velocity(model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray, target: np.ndarray,
+                   target_rotation: np.ndarray, gain: float, max_speed: float, damping: float) -> np.ndarray:
+    """Joint velocities (rad/s, over `columns`) moving the swing foot frame toward `target` (m, world)
+    and `target_rotation`, at `gain` (1/s) and at most `max_speed` (m/s)."""
+    placement = data.oMf[swing]
+    linear = gain * (target - placement.translation)
+    speed = float(np.linalg.norm(linear))
+    if speed > max_speed:
+        linear *= max_speed / speed
+    angular = gain * pin.log3(target_rotation @ placement.rotation.T)
+    # What the swing foot would do with the joints locked: move rigidly with the (tipping) stance foot.
+    stance_twist = pin.getFrameVelocity(model, data, stance, LWA)
+    carried = stance_twist.linear + np.cross(stance_twist.angular, placement.translation - data.oMf[stance].translation)
+    desired = np.concatenate([linear - carried, angular - stance_twist.angular])
+    return damped_solve(foot_to_foot_jacobian(model, data, swing, stance, columns), desired, damping)

@@ -1,0 +1,233 @@
+"""`direction`: direction-changing fall control among objects (Nagarajan & Goswami, 004).
+
+Fall trigger (the episode's fall detector) -> joints held until the control trigger (steady
+capture-point path, or a time limit; trigger.py) -> plan once: safe regions about the CoM,
+candidates with pendulum predictions, scores and the selection rule -> every control step: eq. 5
+for the swing foot, eq. 8 (partial) or eq. 6 (whole-body) inertia shaping toward the desired
+direction. Joint velocities are integrated into the servo references, held by the default gains.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from fallbench.dynamics.model import pinocchio_for
+from fallbench.events import capture_point, support_polygon
+from fallbench.preimpact.base import Strategy
+from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate
+from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
+from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
+from fallbench.preimpact.direction.inertia import damped_solve, desired_inertia, inertia_about, inertia_jacobian, to_vector
+from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
+from fallbench.preimpact.direction.stepping import swing_velocity
+from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
+from fallbench.preimpact.direction.trigger import ControlTrigger
+from fallbench.scenario import Scenario
+from fallbench.servo import ServoCommand
+from fallbench.world import World
+
+if TYPE_CHECKING:
+    from fallbench.episode import Recording
+
+LANDED = 0.005  # m: a sole frame this close to its standing height is on the ground
+
+
+def _yaw_only(rotation: np.ndarray) -> np.ndarray:
+    yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+    return pin.utils.rpyToMatrix(0.0, 0.0, yaw)
+
+
+class DirectionStrategy(Strategy):
+    name = "direction"
+    defaults = DIRECTION_PARAMS
+
+    def __init__(self, world: World, scenario: Scenario) -> None:
+        super().__init__(world, scenario)
+        self.config = config = DirectionConfig(**self.params)
+        if config.mode not in MODES or config.selection not in SELECTIONS:
+            raise ValueError(f"direction: mode must be one of {', '.join(MODES)} and selection one of {', '.join(SELECTIONS)}")
+        self.P = pinocchio_for(world)
+        model = self.P.model
+        self.feet = world.robot.feet
+        self.frames = {side: model.getFrameId(body) for side, body in self.feet.items()}
+        self.chains = {side: set(model.supports[model.frames[f].parentJoint]) for side, f in self.frames.items()}
+        self.leg_columns = {side: np.array(sorted(model.joints[j].idx_v - 6 for j in chain if j > 1))
+                            for side, chain in self.chains.items()}
+        every = np.arange(model.nv - 6)
+        self.upper_columns = np.setdiff1d(every, np.concatenate(list(self.leg_columns.values())))
+        self.speed_limit = model.velocityLimit[6:]
+        self.objects = [object_circle(o) for o in scenario.obstacles]
+        self.grid = StepGrid(np.arange(config.step_radius_min, config.step_radius_max + 1e-9, config.step_radius_step),
+                             np.radians(np.arange(0.0, 360.0, config.step_heading_step)), config.foot_speed,
+                             config.min_foot_separation, 2 * config.robot_radius)
+        self.trigger = ControlTrigger(config.trigger_window, config.trigger_tolerance, config.trigger_min_travel, config.trigger_timeout)
+        self.plan: Plan | None = None
+        self.plan_ms = math.nan
+        self.origin = np.zeros(2)
+        self.regions: list = []
+        self.com_height = math.nan
+        self.standing: dict[str, pin.SE3] = {}  # foot frames at the fall trigger, soles flat
+        self.sole_centres: dict[str, np.ndarray] = {}  # m, (2,) at the control trigger
+        self.step_done: float | None = None
+        self.q_ref = self.qd_ref = np.zeros(world.model.nu)
+        self.step_ms: list[float] = []
+
+    # ------------------------------------------------------------------ episode hooks
+
+    def start(self, t: float, data: mujoco.MjData) -> None:
+        model, pdata = self.P.model, self.P.data
+        q, _ = self.P.state(data.qpos, data.qvel)
+        pin.framesForwardKinematics(model, pdata, q)
+        self.com_height = float(pin.centerOfMass(model, pdata, q)[2])
+        self.standing = {side: pdata.oMf[f].copy() for side, f in self.frames.items()}
+        self.q_ref = data.ctrl.copy()  # the references held so far: the joints stay locked until the control trigger
+        self.qd_ref = np.zeros_like(self.q_ref)
+
+    def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None:
+        started = time.perf_counter()
+        model, pdata = self.P.model, self.P.data
+        q, v = self.P.state(data.qpos, data.qvel)
+        pin.forwardKinematics(model, pdata, q, v)
+        pin.computeJointJacobians(model, pdata, q)
+        pin.updateFramePlacements(model, pdata)
+        pin.centerOfMass(model, pdata, q, v)
+        com, com_velocity = pdata.com[0].copy(), pdata.vcom[0].copy()
+        xi = capture_point(com, com_velocity)
+        if self.plan is None:
+            if not self.trigger.update(t, xi):
+                return None
+            self._plan(data, com, com_velocity)
+        command = self._control(t, data, q, v, xi)
+        self.step_ms.append((time.perf_counter() - started) * 1e3)
+        return command
+
+    def planned_contacts(self) -> set[str]:
+        if self.plan is None or self.plan.chosen.swing is None:
+            return set()
+        body = self.world.model.body(self.feet[self.plan.chosen.swing])
+        return {body.name, self.world.model.body(body.parentid[0]).name}
+
+    # ------------------------------------------------------------------ planning
+
+    def _plan(self, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
+        started = time.perf_counter()
+        config = self.config
+        self.origin = com[:2].copy()
+        circles = grown_circles(self.scenario.obstacles, self.origin, config.robot_radius, config.consider_factor * config.robot_height)
+        self.regions = safe_regions(circles, self.origin)
+        soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
+        self.sole_centres = {side: corners.mean(axis=0) for side, corners in soles.items()}
+        state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
+        candidates, _ = evaluate(soles, state, self.grid, self.objects)
+        self.plan = choose(candidates, self.regions, config.mode, config.selection, config.w1, config.w2, config.allow_capture)
+        self.plan_ms = (time.perf_counter() - started) * 1e3
+
+    # ------------------------------------------------------------------ control
+
+    def _swing(self, t: float, qdot: np.ndarray) -> None:
+        """Eq. 5 toward the lifted pose (Lift a Leg) or the step target (Take a Step)."""
+        assert self.plan is not None
+        chosen, config, model, pdata = self.plan.chosen, self.config, self.P.model, self.P.data
+        swing = chosen.swing
+        assert swing is not None
+        stance = next(s for s in self.frames if s != swing)
+        frame, home = self.frames[swing], self.standing[swing]
+        position = pdata.oMf[frame].translation
+        if chosen.kind == "lift_leg":
+            target = home.translation + np.array([0.0, 0.0, config.lift_height])
+        else:
+            assert chosen.target is not None
+            # the sole centre moves to the target: the frame moves by the same horizontal offset
+            target_xy = home.translation[:2] + chosen.target - self.sole_centres[swing]
+            far = float(np.linalg.norm(target_xy - position[:2])) > 0.5 * config.step_tolerance
+            target = np.array([*target_xy, home.translation[2] + (config.lift_height if far else 0.0)])
+            if not far and position[2] <= home.translation[2] + LANDED:
+                self.step_done = t
+                return
+        columns = self.leg_columns[swing]
+        qdot[columns] = swing_velocity(model, pdata, frame, self.frames[stance], columns, target, _yaw_only(home.rotation),
+                                       config.step_gain, config.foot_speed, config.damping)
+
+    def _shape(self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray) -> None:
+        """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP."""
+        assert self.plan is not None and self.plan.desired is not None
+        model, pdata, plan = self.P.model, self.P.data, self.plan
+        swing = plan.chosen.swing
+        soles = [sole_corners(self.world.model, data, body) for side, body in self.feet.items() if side != swing]
+        pivot = nearest_pivot(support_polygon(np.vstack(soles)), xi)
+        point = np.array([*pivot.point, 0.0])
+        stance = next((s for s in self.frames if s != swing), "left") if swing else min(
+            self.frames, key=lambda s: float(np.linalg.norm(pdata.oMf[self.frames[s]].translation[:2] - pivot.point)))
+        inertia, momentum = inertia_about(model, pdata, q, v, point)
+        jacobian = inertia_jacobian(model, pdata, point, self.chains[stance])
+        error = to_vector(desired_inertia(inertia, momentum, plan.desired)) - to_vector(inertia)
+        if plan.inertia_shaping == "wbis":
+            columns, placement = np.arange(model.nv - 6), np.array([], dtype=int)
+        else:
+            placement = self.leg_columns[swing]
+            columns = self.upper_columns if plan.chosen.kind == "take_step" else np.setdiff1d(np.arange(model.nv - 6), placement)
+        rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
+        qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
+
+    def _control(self, t: float, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray) -> ServoCommand:
+        assert self.plan is not None
+        qdot = np.zeros(self.P.model.nv - 6)
+        if self.plan.chosen.swing is not None and self.step_done is None:
+            self._swing(t, qdot)
+            self._within_speed_limits(qdot)
+        if self.plan.inertia_shaping and self.plan.desired is not None:
+            placed = qdot.copy()
+            self._shape(data, q, v, xi, qdot)
+            shaping = qdot - placed
+            self._within_speed_limits(shaping)  # the foot placement keeps its speed, inertia shaping gets scaled
+            qdot = placed + shaping
+        world, dt = self.world, self.scenario.control_dt
+        self.qd_ref = qdot[self.P.actuated_v - 6]
+        self.q_ref = np.clip(self.q_ref + self.qd_ref * dt, world.joint_range[:, 0], world.joint_range[:, 1])
+        return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
+
+    def _within_speed_limits(self, qdot: np.ndarray) -> None:
+        """Scale joint velocities (in place) to the joints' rated speeds, keeping their direction."""
+        excess = float(np.max(np.abs(qdot) / self.speed_limit))
+        if excess > 1.0:
+            qdot /= excess
+
+    # ------------------------------------------------------------------ results
+
+    def stats(self) -> dict[str, Any]:
+        return {"direction_step_ms_median": float(np.median(self.step_ms)) if self.step_ms else math.nan}
+
+    def metrics(self, recording: "Recording") -> dict[str, Any]:
+        plan = self.plan
+        row: dict[str, Any] = {
+            "direction_strategy": plan.label if plan else "",
+            "control_trigger_time": self.trigger.time if self.trigger.time is not None else math.nan,
+            "control_trigger_reason": self.trigger.reason,
+            "direction_plan_ms": self.plan_ms,
+            "predicted_fall_direction_deg": math.degrees(plan.chosen.direction) if plan else math.nan,
+            "predicted_score": plan.chosen.score if plan else math.nan,
+            "desired_fall_direction_deg": math.degrees(plan.desired) if plan and plan.desired is not None else math.nan,
+            "direction_origin_x": float(self.origin[0]) if plan else math.nan,
+            "direction_origin_y": float(self.origin[1]) if plan else math.nan,
+        }
+        impacts = [e.t for e in recording.impact_events]
+        if plan and plan.chosen.kind == "take_step":
+            row["step_completed"] = self.step_done is not None and (not impacts or self.step_done <= impacts[0])
+            assert plan.chosen.target is not None
+            row["step_target_x"], row["step_target_y"] = (float(x) for x in plan.chosen.target)
+        if plan:
+            best = {}
+            usable = [c for c in plan.candidates if c.kind == "no_action" or self.config.allow_capture or not c.capturing]
+            for c in sorted(usable, key=lambda c: c.score):
+                best.setdefault(c.name, c)
+            row["direction_candidates"] = json.dumps([{"name": c.name, "deg": round(math.degrees(c.direction), 1),
+                                                       "score": round(c.score, 3) if math.isfinite(c.score) else None,
+                                                       "capturing": c.capturing} for c in best.values()])
+        return row

@@ -1,0 +1,37 @@
+"""`reshape`: posture reshaping and landing-point control of 002 Sec. IV / 000 Sec. IV
+(the controller itself is `fallbench.control.reshape.ReshapeController`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from fallbench.control.reshape import RESHAPE_PARAMS, ReshapeController
+from fallbench.preimpact.base import Strategy
+from fallbench.scenario import Scenario
+from fallbench.servo import ServoCommand
+from fallbench.world import World
+
+
+class ReshapeStrategy(Strategy):
+    name = "reshape"
+    defaults = RESHAPE_PARAMS
+    per_chain_switching = True
+
+    def __init__(self, world: World, scenario: Scenario) -> None:
+        super().__init__(world, scenario)
+        self.controller = ReshapeController(world, scenario, scenario.policy_params.get(self.name))
+
+    def start(self, t: float, data: mujoco.MjData) -> None:
+        self.controller.start(data.qpos, data.qvel, data.qpos[self.world.qpos_adr], data.qvel[self.world.qvel_adr])
+
+    def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None:
+        return self.controller.step(t, data, data.qpos, data.qvel)
+
+    def landing_target(self, side: str, t: float) -> np.ndarray | None:
+        return self.controller.bip_before(side, t)
+
+    def stats(self) -> dict[str, Any]:
+        return self.controller.stats()

@@ -1,0 +1,225 @@
+"""004's direction-changing fall control in the report: top-down plots as in 004's figures, hit
+rates of `none` vs `direction` on the same falls, and 004's claims with N/M counts."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from matplotlib.patches import Circle as CirclePatch
+from matplotlib.patches import Wedge
+from ruamel.yaml import YAML
+
+from fallbench import store
+from fallbench.preimpact.direction.config import DirectionConfig
+from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
+from fallbench.report.figures import _save
+from fallbench.scenario import Scenario
+
+PAIR_KEYS = ["point", "policy"]
+PLOT_RADIUS = 2.2  # m, extent of the shaded safe cones
+
+
+def _class(label: str) -> str:
+    """no_action / lift_leg / take_step / take_step+pis ... from e.g. take_step_right+pis."""
+    return label.replace("_left", "").replace("_right", "")
+
+
+def paired(runs: pd.DataFrame) -> pd.DataFrame:
+    """One row per (point, policy) run with both `none` and `direction`: outcomes side by side."""
+    ok = runs[(runs.status == "ok") & runs.get("obstacle_hit", pd.Series(index=runs.index, dtype=object)).notna()]
+    none = ok[ok.pre_impact == "none"].set_index(PAIR_KEYS)
+    direction = ok[ok.pre_impact == "direction"].set_index(PAIR_KEYS)
+    both = none.index.intersection(direction.index)
+    if not len(both):
+        return pd.DataFrame()
+    none, direction = none.loc[both], direction.loc[both]
+    frame = pd.DataFrame({
+        "scenario": direction.scenario, "fell": none.fall_time.notna(),
+        "none_hit": none.obstacle_hit.astype(bool), "direction_hit": direction.obstacle_hit.astype(bool),
+        "none_safe": none.actual_in_safe_region.astype(bool), "direction_safe": direction.actual_in_safe_region.astype(bool),
+        "strategy": direction.direction_strategy.fillna(""), "error_deg": direction.fall_direction_error_deg,
+        "plan_ms": direction.direction_plan_ms, "step_ms": direction.get("direction_step_ms_median"),
+        "predicted_score": direction.predicted_score, "step_completed": direction.get("step_completed"),
+        "layout_yaw": direction.get("param:layout_yaw", pd.Series(0.0, index=direction.index)).fillna(0.0),
+    })
+    return frame.reset_index()
+
+
+def _ratio(n: int, m: int) -> str:
+    return f"{n}/{m}" + (f" ({100 * n / m:.0f} %)" if m else "")
+
+
+def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
+    """Per scenario (layout and case): object hits of `none` vs `direction`, strategies chosen,
+    prediction error and planning time."""
+    rows = []
+    for scenario, group in pairs.groupby("scenario"):
+        hits = group[group.none_hit]
+        clear = group[~group.none_hit]
+        rows.append({
+            "scenario": scenario, "runs": len(group), "falls detected": int(group.fell.sum()),
+            "none hits object": _ratio(int(group.none_hit.sum()), len(group)),
+            "direction hits object": _ratio(int(group.direction_hit.sum()), len(group)),
+            "none hits avoided by direction": _ratio(int((~hits.direction_hit).sum()), len(hits)),
+            "none clear kept clear": _ratio(int((~clear.direction_hit).sum()), len(clear)),
+            "strategies chosen": ", ".join(f"{k} {v}" for k, v in group.strategy.map(_class).value_counts().items()),
+            "prediction error median (deg)": round(float(group.error_deg.median()), 1),
+            "plan median (ms)": round(float(group.plan_ms.median()), 1),
+            "control step median (ms)": round(float(group.step_ms.median()), 2) if group.step_ms.notna().any() else math.nan,
+        })
+    return pd.DataFrame(rows)
+
+
+def claims(runs: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
+    """004's qualitative claims against our runs (thresholds are ours: 004 reports single cases)."""
+    rows: list[dict[str, str]] = []
+
+    def claim(text: str, n: int, m: int, holds: bool | None, extra: str = "") -> None:
+        verdict = "n/a" if holds is None or m == 0 else ("holds" if holds else "does not hold")
+        rows.append({"claim (004)": text, "verdict": verdict, "N/M": _ratio(n, m) + (f"; {extra}" if extra else "")})
+
+    if pairs.empty:
+        return pd.DataFrame(rows)
+    hits, clear = pairs[pairs.none_hit], pairs[~pairs.none_hit]
+    n = int((~hits.direction_hit).sum())
+    claim("direction avoids the objects that none hits (Fig. 1); holds at >= 50 %", n, len(hits), n >= 0.5 * len(hits))
+    n = int((~clear.direction_hit).sum())
+    claim("direction keeps safe none falls safe; holds at >= 95 %", n, len(clear), n >= 0.95 * len(clear))
+    na = pairs[pairs.strategy == "no_action"]
+    n = int((~na.direction_hit).sum())
+    claim("when No Action is chosen (predicted safe), the fall is safe (Fig. 6)", n, len(na), n == len(na))
+    chosen = pairs.strategy.map(_class)
+    classes = {"no_action": chosen == "no_action", "lift_leg": chosen.str.startswith("lift_leg"),
+               "take_step": chosen.str.startswith("take_step"), "whole-body IS": chosen.str.endswith("+wbis")}
+    safe_counts = {k: int((m & ~pairs.direction_hit).sum()) for k, m in classes.items()}
+    n = sum(1 for k in classes if safe_counts[k] > 0)
+    claim("No Action, Lift a Leg, Take a Step and whole-body IS are each chosen and safe at least once", n, len(classes), n == len(classes),
+          ", ".join(f"{k} chosen {int(m.sum())}, safe {safe_counts[k]}" for k, m in classes.items()))
+    wbis = pairs[chosen.str.endswith("+wbis")]
+    n = int((~wbis.direction_hit).sum())
+    claim("whole-body inertia shaping rescues a predicted-unsafe fall (Fig. 9)", n, len(wbis), n >= 1)
+    errors = pairs.error_deg.dropna()
+    claim("prediction error median <= 15 deg (inverted-pendulum prediction, Sec. VI)", int((errors <= 15).sum()), len(errors),
+          bool(len(errors)) and float(errors.median()) <= 15, f"median {errors.median():.1f} deg" if len(errors) else "")
+    steps = pairs[chosen.str.startswith("take_step") & pairs.step_completed.notna()]
+    done, undone = steps[steps.step_completed.astype(bool)], steps[~steps.step_completed.astype(bool)]
+    claim("incomplete steps fail more often than completed ones (Sec. VI)", int(undone.direction_hit.sum()), len(undone),
+          None if not len(done) or not len(undone) else undone.direction_hit.mean() > done.direction_hit.mean(),
+          f"completed steps: {int(done.direction_hit.sum())}/{len(done)} hit")
+    rows += _ablation(runs)
+    rows += _mirrors(pairs)
+    return pd.DataFrame(rows)
+
+
+def _ablation(runs: pd.DataFrame) -> list[dict[str, str]]:
+    """Fig. 10: each strategy forced on the same fall; only Take a Step + partial IS is safe."""
+    mode = "param:policy_params.direction.mode"
+    if mode not in runs:
+        return []
+    forced = runs[(runs.status == "ok") & runs[mode].notna() & (runs.pre_impact == "direction")]
+    if forced.empty:
+        return []
+    hit = forced.groupby(mode).obstacle_hit.agg(["sum", "count"])
+    pis_safe = "take_step_pis" in hit.index and hit.loc["take_step_pis", "sum"] == 0
+    others_hit = all(hit.loc[m, "sum"] > 0 for m in ("no_action", "take_step") if m in hit.index)
+    numbers = ", ".join(f"{m}: {int(r['sum'])}/{int(r['count'])} hit" for m, r in hit.iterrows())
+    return [{"claim (004)": "Fig. 10: Take a Step + partial IS is safe where No Action and Take a Step are not",
+             "verdict": "holds" if pis_safe and others_hit else "does not hold", "N/M": numbers}]
+
+
+def _mirrors(pairs: pd.DataFrame) -> list[dict[str, str]]:
+    """Each figure mirror picks 004's strategy."""
+    expected = {"dir_fig1": "take_step", "dir_fig6": "no_action", "dir_fig7": "lift_leg", "dir_fig8": "take_step+pis",
+                "dir_fig9": "no_action+wbis"}
+    cases = pairs[pairs.scenario.isin(expected)]
+    if cases.empty:
+        return []
+    picks = cases.assign(cls=cases.strategy.map(_class)).groupby("scenario").cls.agg(lambda s: s.mode().iloc[0])
+    match = sum(picks.get(k, "").startswith(v) for k, v in expected.items() if k in picks)
+    numbers = "; ".join(f"{k}: {picks[k]} (004: {v})" for k, v in expected.items() if k in picks)
+    return [{"claim (004)": "the figure mirrors pick 004's strategies (Figs. 1, 6-9)",
+             "verdict": "holds" if match == len(picks) else "does not hold", "N/M": f"{match}/{len(picks)}; {numbers}"}]
+
+
+def _scenario(results: Path, run_id: str) -> Scenario:
+    spec = YAML(typ="safe", pure=True).load((store.run_dir(results, run_id) / "spec.yaml").read_text())
+    return Scenario.model_validate(spec["scenario"])
+
+
+def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
+    """004's view from above: objects and grown circles, safe cones about the CoM at the control
+    trigger, CoM paths of none and direction, candidates' predicted directions, the chosen and
+    desired directions."""
+    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index("pre_impact")
+    if not {"none", "direction"} <= set(rows.index):
+        return []
+    chosen = rows.loc["direction"]
+    scenario = _scenario(results, chosen.run_id)
+    config = DirectionConfig(**scenario.policy_params.get("direction", {}))
+    origin = np.array([chosen.direction_origin_x, chosen.direction_origin_y])
+    if not np.isfinite(origin).all():
+        return []
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    grown = grown_circles(scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height)
+    for region in safe_regions(grown, origin):
+        start = math.degrees(region.start)
+        ax.add_patch(Wedge(origin, PLOT_RADIUS, start, start + math.degrees(region.width), color="#17becf", alpha=0.18, lw=0))
+    for obstacle in scenario.obstacles:
+        circle = object_circle(obstacle)
+        ax.add_patch(CirclePatch(circle.centre, circle.radius, color="#8c564b", alpha=0.55))
+        ax.add_patch(CirclePatch(circle.centre, circle.radius + config.robot_radius, fill=False, ls="--", color="#8c564b", lw=0.8))
+    for name, colour in (("none", "#7f7f7f"), ("direction", "#1f77b4")):
+        series = store.load_timeseries(results, rows.loc[name, "run_id"])
+        hit = "hit" if rows.loc[name, "obstacle_hit"] else "clear"
+        ax.plot(series.com_x, series.com_y, color=colour, lw=2, label=f"CoM, {name} ({hit})")
+    for candidate in json.loads(chosen.direction_candidates or "[]"):
+        angle = math.radians(candidate["deg"])
+        safe = candidate["score"] is not None and candidate["score"] <= 1.0
+        ax.plot(*np.c_[origin, origin + 1.0 * np.array([math.cos(angle), math.sin(angle)])], color="#2ca02c" if safe else "#d62728",
+                lw=0.8, alpha=0.7)
+        ax.annotate(f"{candidate['name']} {candidate['score'] if candidate['score'] is not None else 'inf'}",
+                    origin + 1.05 * np.array([math.cos(angle), math.sin(angle)]), fontsize=6)
+    for value, style, label in ((chosen.predicted_fall_direction_deg, dict(color="black", ls="--"), "predicted (chosen)"),
+                                (chosen.desired_fall_direction_deg, dict(color="red"), "desired theta_d")):
+        if np.isfinite(value):
+            ax.plot(*np.c_[origin, origin + 1.6 * np.array([math.cos(math.radians(value)), math.sin(math.radians(value))])], lw=1.5,
+                    label=label, **style)
+    ax.set(xlim=(-2.4, 2.4), ylim=(-2.4, 2.4), aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    ax.set_title(f"{point} ({policy})\ndirection chose {chosen.direction_strategy or 'nothing'}", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+    stem = "direction_" + "".join(c if c.isalnum() else "_" for c in point).strip("_") + f"_{policy}"
+    return _save(fig, out, stem)
+
+
+def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:
+    """Share of falls hitting an object, none vs direction, per scenario."""
+    if pairs.empty:
+        return []
+    rates = pairs.groupby("scenario")[["none_hit", "direction_hit"]].mean() * 100
+    fig, ax = plt.subplots(figsize=(max(5, 1.2 * len(rates)), 3.5))
+    x = np.arange(len(rates))
+    ax.bar(x - 0.2, rates.none_hit, 0.4, color="#7f7f7f", label="none")
+    ax.bar(x + 0.2, rates.direction_hit, 0.4, color="#1f77b4", label="direction")
+    ax.set_xticks(x, rates.index, fontsize=8, rotation=20)
+    ax.set(ylabel="falls hitting an object (%)", ylim=(0, 105), title="Object hits: none vs direction (004)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, axis="y")
+    return _save(fig, out, "direction_hit_rates")
+
+
+def direction_report(runs: pd.DataFrame, results: Path, out: Path) -> tuple[list[Path], dict[str, pd.DataFrame]]:
+    pairs = paired(runs)
+    if pairs.empty:
+        return [], {}
+    paths = hit_rate_figure(pairs, out)
+    policy = "stiff" if (pairs.policy == "stiff").any() else pairs.policy.iloc[0]
+    cases = sorted(pairs[pairs.scenario.str.startswith("dir_fig")].point.unique())
+    for point in cases:
+        paths += top_down_figure(runs, results, out, point, policy)
+    return paths, {"Object hits, none vs direction (004)": hit_table(pairs), "Claims of 004": claims(runs, pairs)}

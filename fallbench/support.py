@@ -1,0 +1,47 @@
+"""The support polygon's points, read from the simulator: the footprint of each foot in contact.
+
+The polygon is the convex hull of the footprints (the geometry's bounding-box corners, projected
+on the ground) of the foot bodies whose contact sensors saw the environment, not of the contact
+points themselves: as soon as a foot rolls onto its toe or heel under a push, its contact points
+shrink to that edge, and the capture point of a push TALOS survives lies outside the edge (by up to
+0.145 m at 235 N forward, measured) although the foot will roll back flat. The footprint is where
+the foot can still push, so leaving it means the fall cannot be stopped without a step.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from fallbench.world import World
+
+UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+
+
+class FootSupport:
+    """Ground-plane corners of the feet in contact, each control step (numpy on MjData only)."""
+
+    def __init__(self, world: World) -> None:
+        model = world.model
+        feet = set(world.robot.body_groups["feet"])
+        self.columns = np.array([i for i, body in enumerate(world.contact_bodies) if body in feet], dtype=int)
+        self.geoms: list[np.ndarray] = []  # per foot column: the body's collision geoms
+        self.corners: list[np.ndarray] = []  # per foot column: (n_geoms, 8, 3) corners, geom frame
+        for i in self.columns:
+            body = model.body(world.contact_bodies[i]).id
+            geoms = np.flatnonzero((model.geom_bodyid == body) & (model.geom_contype > 0))
+            aabb = model.geom_aabb[geoms]  # centre (3) and half extents (3), geom frame
+            self.geoms.append(geoms)
+            self.corners.append(aabb[:, None, :3] + UNIT_CORNERS[None] * aabb[:, None, 3:])
+
+    def points(self, data: mujoco.MjData, found: np.ndarray) -> np.ndarray:
+        """(n, 2) ground-plane points of the feet whose contact sensors are in `found` (a mask
+        over the world's contact bodies); empty when no foot touches."""
+        touching = [k for k, i in enumerate(self.columns) if found[i]]
+        if not touching:
+            return np.zeros((0, 2))
+        points = []
+        for k in touching:
+            for geom, corners in zip(self.geoms[k], self.corners[k]):
+                points.append(corners @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom])
+        return np.concatenate(points)[:, :2]

@@ -1,0 +1,91 @@
+"""004's control pieces on TALOS's Pinocchio model: the inertia Jacobian about the CoP against
+finite differences with the stance foot held on the ground, and eq. 5 bringing the swing foot to
+its target."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from fallbench.dynamics.model import pinocchio_for
+from fallbench.preimpact.direction.inertia import (desired_inertia, inertia_about, inertia_jacobian, to_vector)
+from fallbench.preimpact.direction.stepping import swing_velocity
+from fallbench.scenario import Scenario
+from fallbench.world import build_world, initial_state
+
+
+@pytest.fixture(scope="module")
+def talos():
+    scenario = Scenario(name="stand", duration=1.0)
+    world = build_world(scenario)
+    data = initial_state(world, scenario)
+    P = pinocchio_for(world)
+    q, _ = P.state(data.qpos, data.qvel)
+    rng = np.random.default_rng(3)
+    q[7:] += rng.uniform(-0.2, 0.2, P.model.nq - 7)  # away from symmetric poses
+    return world, P, q
+
+
+def _anchored_inertia(model: pin.Model, data: pin.Data, q: np.ndarray, foot: int, placement: pin.SE3, point: np.ndarray) -> np.ndarray:
+    """I_hat about `point` after moving the base so that the foot frame sits at `placement`."""
+    pin.framesForwardKinematics(model, data, q)
+    base = placement * data.oMf[foot].inverse() * pin.XYZQUATToSE3(q[:7])
+    q = q.copy()
+    q[:7] = pin.SE3ToXYZQUAT(base)
+    return to_vector(inertia_about(model, data, q, np.zeros(model.nv), point)[0])
+
+
+def test_inertia_jacobian_matches_finite_differences(talos) -> None:
+    world, P, q = talos
+    model, data = P.model, P.data
+    foot = model.getFrameId(world.robot.feet["left"])
+    pin.framesForwardKinematics(model, data, q)
+    placement = data.oMf[foot].copy()
+    point = placement.translation + np.array([0.1, 0.03, -0.1])  # a ground point near the foot
+    inertia_about(model, data, q, np.zeros(model.nv), point)
+    pin.computeJointJacobians(model, data, q)
+    anchored = set(model.supports[model.frames[foot].parentJoint])
+    J = inertia_jacobian(model, data, point, anchored)
+    eps = 1e-6
+    numeric = np.zeros_like(J)
+    for k in range(model.nv - 6):
+        step = np.zeros(model.nv)
+        step[6 + k] = eps
+        plus = _anchored_inertia(model, data, pin.integrate(model, q, step), foot, placement, point)
+        minus = _anchored_inertia(model, data, pin.integrate(model, q, -step), foot, placement, point)
+        numeric[:, k] = (plus - minus) / (2 * eps)
+    assert np.abs(numeric).max() > 1.0  # kg m^2/rad: the test sees real changes
+    np.testing.assert_allclose(J, numeric, atol=1e-5 * np.abs(numeric).max())
+
+
+def test_desired_inertia_turns_the_momentum_toward_the_direction() -> None:
+    inertia = np.diag([60.0, 55.0, 8.0]) + 2.0
+    momentum = np.array([0.0, 30.0, 1.0])  # tipping about +y: falling toward +x
+    target = desired_inertia(inertia, momentum, np.pi / 2)  # fall toward +y instead: spin about -x
+    omega = np.linalg.solve(target, momentum)
+    np.testing.assert_allclose(target, target.T)
+    assert omega[0] < 0 and abs(omega[1]) < 1e-9 * abs(omega[0])
+
+
+def test_eq5_brings_the_swing_foot_to_its_target(talos) -> None:
+    world, P, q = talos
+    model, data = P.model, P.data
+    swing, stance = (model.getFrameId(world.robot.feet[s]) for s in ("right", "left"))
+    columns = np.array([model.joints[j].idx_v for j in model.supports[model.frames[swing].parentJoint][2:]])
+    q = q.copy()
+    pin.framesForwardKinematics(model, data, q)
+    target = data.oMf[swing].translation + np.array([0.15, -0.1, 0.05])
+    rotation = data.oMf[swing].rotation.copy()
+    dt = 0.005
+    for _ in range(300):
+        pin.forwardKinematics(model, data, q, np.zeros(model.nv))
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        qd = swing_velocity(model, data, swing, stance, columns, target, rotation, 20.0, 1.0, 1e-3)
+        velocity = np.zeros(model.nv)
+        velocity[columns] = qd
+        q = pin.integrate(model, q, velocity * dt)
+    pin.framesForwardKinematics(model, data, q)
+    assert np.linalg.norm(data.oMf[swing].translation - target) < 1e-3
+    assert np.linalg.norm(pin.log3(rotation @ data.oMf[swing].rotation.T)) < 1e-3
