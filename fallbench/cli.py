@@ -191,7 +191,7 @@ def export_command(
 @app.command("bench")
 def bench_command(
     scenario: Path = typer.Option(Path("scenarios/drop.yaml"), help="Scenario file to measure on."),
-    point: list[str] = typer.Option(["initial.height=1.0"], help="Sweep point of the file: an index, or key=value (repeatable)."),
+    point: list[str] = typer.Option(["3"], help="Sweep point of the file: an index, or key=value (repeatable); default: the 1 m drop of the default robot."),
     pre_impact: str = typer.Option("none", help="Pre-impact strategy of the measured episodes."),
     repeats: int = typer.Option(5, min=1, help="Repeats per measurement (medians are reported)."),
     sweep_runs: int = typer.Option(48, min=4, help="Runs in the 1-job vs 2-job throughput sweep (fewer: the last long run alone on one worker weighs more)."),
