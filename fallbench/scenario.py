@@ -33,6 +33,7 @@ class Initial(Strict):
     posture: str = "half_sitting"
     height: NonNegativeFloat = 0.0  # m between the feet and the floor at t = 0
     joints: dict[str, float] = {}  # rad, overrides of the posture
+    joint_noise: Annotated[float, Field(ge=0, le=0.5)] = 0.0  # rad, half-width of a uniform offset per joint, drawn from the seed
 
 
 class Push(Strict):

@@ -51,6 +51,8 @@ class RobotDescription:
     disabled_collisions: tuple[tuple[str, str], ...] = ()
     arms: dict[str, Arm] = field(default_factory=dict)  # "left"/"right" -> names
     leg_pitch_joints: dict[str, tuple[str, ...]] = field(default_factory=dict)  # "hip"/"knee"/"ankle" -> both legs
+    vulnerable_parts: dict[str, tuple[str, ...]] = field(default_factory=dict)  # part a hit on counts as damage -> its bodies
+    torque_chains: dict[str, str] = field(default_factory=dict)  # chain name -> regex of its joints, for per-chain torque peaks
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine."""

@@ -47,6 +47,12 @@ TALOS_BODY_GROUPS: dict[str, tuple[str, ...]] = {
 }
 
 
+# Parts a hit on damages (SafeFall's "vulnerable parts"): the head with its camera, and the grippers.
+TALOS_VULNERABLE_PARTS = {"head": TALOS_BODY_GROUPS["head"]} | {
+    f"gripper_{side}": tuple(b for b in TALOS_BODY_GROUPS["hands"] if b.startswith(f"gripper_{side}_")) for side in ("left", "right")}
+TALOS_TORQUE_CHAINS = {"legs": r"leg_.*", "arms": r"arm_.*", "torso": r"torso_.*", "head": r"head_.*"}
+
+
 def _data_root() -> Path:
     dist = distribution("example-robot-data")
     return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
@@ -77,4 +83,6 @@ def talos() -> RobotDescription:
                         f"arm_{side}_6_joint", f"gripper_{side}_base_link") for side in ("left", "right")},
         leg_pitch_joints={"hip": ("leg_left_3_joint", "leg_right_3_joint"), "knee": ("leg_left_4_joint", "leg_right_4_joint"),
                           "ankle": ("leg_left_5_joint", "leg_right_5_joint")},
+        vulnerable_parts=TALOS_VULNERABLE_PARTS,
+        torque_chains=TALOS_TORQUE_CHAINS,
     )
