@@ -129,3 +129,26 @@ def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
     paths = sensitivity_figure(swept, tmp_path)
     assert [p.name for p in paths] == ["sensitivity_gain_scale.png", "sensitivity_gain_scale.svg"]
     assert paths[0].stat().st_size > 10_000
+
+
+def test_prescription_and_detection_tables_on_hand_made_rows() -> None:
+    from fallbench.report.preimpact import detection_table, prescription_table
+
+    nan = float("nan")
+    rows = pd.DataFrame({
+        "scenario": "push_x", "status": "ok", "first_impact_group": ["knees", "knees", "hands", "hands", ""],
+        "pre_impact": ["none", "reshape", "none", "reshape", "none"],
+        "fall_class": ["front", "front", "left", "right", ""],
+        "first_impact_prescribed": [True, False, False, True, False], "knees_simultaneous": [1.0, 0.0, nan, nan, nan],
+        "head_before_hands": [False, True, False, False, False],
+        "contact_force_peak_head": [20000.0, 8000.0, 7000.0, 0.0, 0.0], "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 0.0],
+        "imu_peak_norm": 100.0, "imu_peak_z_5ms": 50.0, "fall_lead_time": [1.2, 1.1, 1.0, 0.9, nan], "fall_reason": "capture_point",
+        "fall_lead_time_capture_point": [1.2, 1.1, 1.0, 0.9, nan], "fall_lead_time_tilt": [0.6, 0.5, nan, 0.4, nan],
+        "fall_lead_time_freefall": nan,
+    })
+    table = prescription_table(rows).set_index(["fall", "pre_impact"])
+    assert table.loc[("front", "none"), "prescribed (%)"] == 100 and table.loc[("front", "reshape"), "knees together"] == "0/1"
+    assert table.loc[("side", "reshape"), "prescribed (%)"] == 100 and table.loc[("side", "none"), "head peak median (N)"] == 7000
+    assert table.loc[("front", "reshape"), "head before hands (%)"] == 100 and len(table) == 4  # the run that did not fall is left out
+    detection = detection_table(rows).set_index("fall")
+    assert detection.loc["front", "capture_point lead median (s)"] == 1.2 and detection.loc["side", "tilt fired (%)"] == 0

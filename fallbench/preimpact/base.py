@@ -29,6 +29,7 @@ class Strategy(ABC):
 
     name: str = ""
     defaults: dict[str, Any] = {}  # parameters under `policy_params.<name>`, with their default values
+    choices: dict[str, tuple[str, ...]] = {}  # the allowed values of text parameters, checked when scenarios load
     # True: each motor switches to the gain policy when its own chain touches down (002 Sec. V);
     # False: every motor switches at the first impact.
     per_chain_switching: bool = False

@@ -55,14 +55,14 @@ def _ratio(n: int, m: int) -> str:
 
 
 def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
-    """Per scenario (layout and case): object hits of `none` vs `direction`, strategies chosen,
-    prediction error and planning time."""
+    """Per scenario and layout turn (`layout_yaw`): object hits of `none` vs `direction`, strategies
+    chosen, prediction error and planning time."""
     rows = []
-    for scenario, group in pairs.groupby("scenario"):
+    for (scenario, yaw), group in pairs.groupby(["scenario", "layout_yaw"]):
         hits = group[group.none_hit]
         clear = group[~group.none_hit]
         rows.append({
-            "scenario": scenario, "runs": len(group), "falls detected": int(group.fell.sum()),
+            "scenario": scenario, "layout_yaw (deg)": yaw, "runs": len(group), "falls detected": int(group.fell.sum()),
             "none hits object": _ratio(int(group.none_hit.sum()), len(group)),
             "direction hits object": _ratio(int(group.direction_hit.sum()), len(group)),
             "none hits avoided by direction": _ratio(int((~hits.direction_hit).sum()), len(hits)),

@@ -25,7 +25,7 @@ class StepGrid:
     radii: np.ndarray  # m, step lengths from the swing foot's current centre
     headings: np.ndarray  # rad, world
     foot_speed: float  # m/s, mean swing-foot speed
-    min_separation: float  # m between the two feet's centres after the step
+    min_separation: float  # m from the stance foot's centre to the target, across (toward the swing foot's side)
     max_separation: float  # m, the maximum leg spread
 
 
@@ -71,16 +71,19 @@ def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:
 
 
 def step_targets(soles: dict[str, np.ndarray], swing: str, grid: StepGrid, objects: list[Circle]) -> list[np.ndarray]:
-    """Grid targets for the swing foot's centre within the leg spread and clear of the objects."""
+    """Grid targets for the swing foot's centre within the leg spread, on the swing foot's own side
+    of the stance foot (no crossing of the legs) and clear of the objects."""
     stance = next(s for s in soles if s != swing)
     centre, other = soles[swing].mean(axis=0), soles[stance].mean(axis=0)
-    reach = float(np.linalg.norm(soles[swing][0] - centre))
+    side = (centre - other) / float(np.linalg.norm(centre - other))  # from the stance foot toward the swing foot
+    reach = float(np.max(np.linalg.norm(soles[swing] - centre, axis=1)))
     targets = []
     for r in grid.radii:
         for heading in grid.headings:
             target = centre + r * np.array([math.cos(heading), math.sin(heading)])
-            separation = float(np.linalg.norm(target - other))
-            if grid.min_separation <= separation <= grid.max_separation and clear_of(target, reach, objects):
+            offset = target - other
+            if (float(offset @ side) >= grid.min_separation and float(np.linalg.norm(offset)) <= grid.max_separation
+                    and clear_of(target, reach, objects)):
                 targets.append(target)
     return targets
 
