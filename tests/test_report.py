@@ -70,7 +70,7 @@ def test_claims_verdicts_follow_the_numbers() -> None:
     table = claims_table(rows).set_index("claim (002 Sec. VI)")
     assert table.loc["adaptive_qp stays off the knee stop", "verdict"].iloc[0] == "does not hold"
     assert table.loc["adaptive_qp has a lower IMU acceleration than stiff (landing)", "verdict"].iloc[0] == "does not hold"
-    assert "whole episode stiff 300, oneshot 400, zero 250, adaptive_qp 500" in table.loc["stiff has the highest IMU acceleration (landing)", "numbers"].iloc[0]
+    assert "whole episode stiff 300.0, oneshot 400.0, zero 250.0, adaptive_qp 500.0" in table.loc["stiff has the highest IMU acceleration (landing)", "numbers"].iloc[0]
 
 
 def test_claims_per_baseline_gain_scale() -> None:
