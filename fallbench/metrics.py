@@ -17,6 +17,7 @@ from fallbench.control.fall_direction import fall_class, horizontal_unit
 from fallbench.episode import Recording
 from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
 from fallbench.events import METHODS
+from fallbench.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
@@ -161,6 +162,10 @@ def impact_metrics(rec: Recording) -> dict[str, object]:
         row[f"landing_error_{side}"] = errors.get(side, float("nan"))
     row["landing_error"] = float(np.mean(list(errors.values()))) if errors else float("nan")
     row["fall_direction_deg"], row["fall_class"] = fall_class_at_impact(rec)
+    landing = touches(rec.world, rec.contact_times)
+    row["first_impact_prescribed"] = first_impact_prescribed(landing, str(row["fall_class"]))
+    row["knees_simultaneous"] = knees_simultaneous(landing)
+    row["head_before_hands"] = head_before_hands(landing)
     return row
 
 

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.report.claims import claims_table
+from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
 
 SUITE = """name: drop
 duration: 0.8
@@ -110,3 +111,44 @@ def test_first_impact_table_counts_by_push_direction() -> None:
     assert table.loc[("back", "reshape"), "torso peak median (N)"] == 5
     assert table.loc[("front", "none"), "first on knees (%)"] == 100
     assert [push_label(d) for d in (0, 45, 90, 180, 225, -90)] == ["front", "front diagonal", "side", "back", "back diagonal", "side"]
+
+
+def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
+    """One line per policy and per adaptive_qp setting; other policies' repeats share their line."""
+    rows = pd.DataFrame([{
+        "scenario": "sensitivity", "status": "ok", "pre_impact": "none", "policy": policy,
+        "param:policy_params.stiff.gain_scale": scale, "param:policy_params.adaptive_qp.posture_kp": kp,
+        "imu_peak_z_landing": scale * (10.0 if policy == "stiff" else kp), "imu_peak_z": 1.0, "knee_limit_margin": 0.1,
+        "torque_demand_ratio_landing": 0.5, "qp_failures_landing": 0, "fell": policy == "stiff",
+    } for scale in (1.0, 2.0) for kp in (100, 25) for policy in ("stiff", "adaptive_qp")])
+    swept = sensitivity_runs(rows)
+    assert set(swept.line) == {"stiff", "adaptive_qp, posture_kp=100", "adaptive_qp, posture_kp=25"}
+    table = sensitivity_table(swept).set_index(["gain_scale", "line"])
+    assert table.loc[(2.0, "adaptive_qp, posture_kp=25"), "imu_peak_z_landing"] == 50.0
+    assert table.loc[(2.0, "stiff"), "imu_peak_z_landing"] == 20.0 and table.loc[(2.0, "stiff"), "fell"] == 1.0
+    paths = sensitivity_figure(swept, tmp_path)
+    assert [p.name for p in paths] == ["sensitivity_gain_scale.png", "sensitivity_gain_scale.svg"]
+    assert paths[0].stat().st_size > 10_000
+
+
+def test_prescription_and_detection_tables_on_hand_made_rows() -> None:
+    from fallbench.report.preimpact import detection_table, prescription_table
+
+    nan = float("nan")
+    rows = pd.DataFrame({
+        "scenario": "push_x", "status": "ok", "first_impact_group": ["knees", "knees", "hands", "hands", ""],
+        "pre_impact": ["none", "reshape", "none", "reshape", "none"],
+        "fall_class": ["front", "front", "left", "right", ""],
+        "first_impact_prescribed": [True, False, False, True, False], "knees_simultaneous": [1.0, 0.0, nan, nan, nan],
+        "head_before_hands": [False, True, False, False, False],
+        "contact_force_peak_head": [20000.0, 8000.0, 7000.0, 0.0, 0.0], "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 0.0],
+        "imu_peak_norm": 100.0, "imu_peak_z_5ms": 50.0, "fall_lead_time": [1.2, 1.1, 1.0, 0.9, nan], "fall_reason": "capture_point",
+        "fall_lead_time_capture_point": [1.2, 1.1, 1.0, 0.9, nan], "fall_lead_time_tilt": [0.6, 0.5, nan, 0.4, nan],
+        "fall_lead_time_freefall": nan,
+    })
+    table = prescription_table(rows).set_index(["fall", "pre_impact"])
+    assert table.loc[("front", "none"), "prescribed (%)"] == 100 and table.loc[("front", "reshape"), "knees together"] == "0/1"
+    assert table.loc[("side", "reshape"), "prescribed (%)"] == 100 and table.loc[("side", "none"), "head peak median (N)"] == 7000
+    assert table.loc[("front", "reshape"), "head before hands (%)"] == 100 and len(table) == 4  # the run that did not fall is left out
+    detection = detection_table(rows).set_index("fall")
+    assert detection.loc["front", "capture_point lead median (s)"] == 1.2 and detection.loc["side", "tilt fired (%)"] == 0

@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import numpy as np
 import pandas as pd
 
 from fallbench.report.style import colour, ordered
@@ -77,17 +78,25 @@ def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_li
 
 
 def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
-    fig, (ax_k, ax_b) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    """K and B of the leg's pitch joints, and the knee's velocity (from its recorded angle): 002 Fig. 5
+    discusses B against the sign of the knee velocity."""
+    fig, (ax_k, ax_b, ax_v) = plt.subplots(3, 1, figsize=(7, 6.5), sharex=True)
     styles = {"hip": "-", "knee": "--", "ankle": ":"}
     for part, joint in leg.items():
         ax_k.plot(ts.t, ts[f"K:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
         ax_b.plot(ts.t, ts[f"B:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
-    for ax in (ax_k, ax_b):
+    knee = f"q:{leg['knee']}"
+    if knee in ts:
+        t = ts.t.to_numpy(dtype=float)
+        ax_v.plot(t, np.gradient(ts[knee].to_numpy(dtype=float), t), color="black", linestyle="--", linewidth=1.0)
+        ax_v.axhline(0.0, color="grey", linewidth=0.6)
+    for ax in (ax_k, ax_b, ax_v):
         _impact_line(ax, impact)
         ax.grid(alpha=0.3)
         if pd.notna(impact):
             ax.set_xlim(max(impact - 0.05, 0), ts.t.max())
     ax_k.set(ylabel="stiffness K (Nm/rad)", title=f"{title}: adaptive_qp gains, right leg (cf. 002 Fig. 5)")
-    ax_b.set(ylabel="damping B (Nms/rad)", xlabel="time (s)")
+    ax_b.set(ylabel="damping B (Nms/rad)")
+    ax_v.set(ylabel="knee velocity (rad/s)", xlabel="time (s)")
     ax_k.legend(fontsize=8)
     return _save(fig, out, stem)
