@@ -251,6 +251,27 @@ def report_command(
     typer.echo(f"wrote {len(paths)} files; open {out}/index.html (summary in {out}/summary.md)")
 
 
+@app.command("render")
+def render_command(
+    run_id: str = typer.Argument(..., help="Run id (or a unique prefix of one), as `fallbench results --columns run_id,point,policy` lists them."),
+    vs: Optional[str] = typer.Option(None, "--vs", help="A second run, shown side by side on the same clock and camera (e.g. none vs reshape)."),
+    out: Path = typer.Option(Path("fall.mp4"), help="Video to write: .mp4 (H.264) or .gif."),
+    results: Path = typer.Option(Path("results"), help="Results store folder."),
+    fps: int = typer.Option(25, min=1, max=100, help="Frames per second of the video."),
+    speed: float = typer.Option(1.0, min=0.05, max=4.0, help="Playback speed: 0.25 = four times slower than real time."),
+) -> None:
+    """Render a stored fall with MuJoCo's offscreen renderer (EGL on headless Linux) as a video."""
+    from fallbench.report.render import RenderUnavailable, ReplayMissing, video
+
+    if out.suffix.lower() not in (".mp4", ".gif"):
+        fail(f"--out {out}: expected a .mp4 or .gif file")
+    try:
+        path = video(results, [run_id] + ([vs] if vs else []), out, fps=fps, speed=speed)
+    except (RenderUnavailable, ReplayMissing) as exc:
+        fail(str(exc))
+    typer.echo(f"wrote {path}")
+
+
 @app.command("results")
 def results_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
