@@ -7,7 +7,12 @@ Everything is measured in one process on the same compiled model, medians of rep
   physics costs more than the standing robot's; the second ratio is the controller's overhead);
 - controller cost per control step where a controller ran, and the QP's model/build/solve parts;
 - sweep throughput with 1 and 2 jobs on the same run list (warm workers), peak RSS per worker,
-  and bytes stored per run.
+  and bytes stored per run;
+- whole commands, start-up included, each in a fresh interpreter: a sweep of shipped drops and
+  pushes (four policies, no reshaping) with 1 and 2 jobs, `fallbench run one` on the point, and
+  the import time of what `run one` loads;
+- the results store at N runs (synthetic rows with a real run's schema): adding one run, a
+  grouped SQL query, a read filtered by scenario and policy.
 """
 
 from __future__ import annotations
@@ -15,6 +20,8 @@ from __future__ import annotations
 import os
 import resource
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import replace
@@ -43,7 +50,14 @@ TARGETS: dict[str, tuple[str, str, float]] = {
     "adaptive_qp QP step p99 (ms)": ("qp_step_ms_p99", "<=", 1.0),
     "2-job / 1-job sweep throughput": ("sweep_speedup", ">=", 1.8),
     "worker peak RSS (MB)": ("worker_peak_rss_mb", "<=", 500.0),
+    "20-run sweep, 2 jobs vs 1, whole command": ("e2e_speedup_20", ">=", 1.6),
+    "100-run sweep, 2 jobs vs 1, whole command": ("e2e_speedup_100", ">=", 1.9),
+    "`run one`, whole command (s)": ("run_one_s", "<=", 1.0),
+    "store: add one run, worst of the adds (s)": ("store_add_one_s_max", "<=", 2.0),
+    "store: grouped query (s)": ("store_query_s_median", "<=", 1.0),
 }
+GROUPED_QUERY = ("SELECT scenario, pre_impact, policy, count(*) AS runs, median(imu_peak_z) AS imu_peak_z, "
+                 "min(knee_limit_margin) AS knee_limit_margin FROM runs GROUP BY ALL ORDER BY ALL")
 
 
 def _median_time(function: Callable[[], Any], repeats: int) -> float:
@@ -134,9 +148,128 @@ def _with_seed(point: ScenarioPoint, seed: int) -> ScenarioPoint:
     return replace(point, scenario=point.scenario.model_copy(update={"seed": seed}))
 
 
+def _sweep_file(runs: int, folder: Path) -> Path:
+    """A scenario file of runs / 4 points, drops and pushes in turn from the shipped files."""
+    from ruamel.yaml import YAML
+
+    from fallbench.scenario import Scenario, load_scenarios
+
+    shipped = Path(__file__).resolve().parents[1] / "scenarios"
+    default = Scenario.model_fields["robot"].default  # the issue's sweep: one robot
+    drops, pushes = ([p for p in load_scenarios([shipped / name]) if p.scenario.robot == default]
+                     for name in ("drop.yaml", "push.yaml"))
+    mixed = [p for pair in zip(drops, pushes) for p in pair] + drops[len(pushes):] + pushes[len(drops):]
+    if runs // 4 > len(mixed):
+        raise ValueError(f"--e2e-runs {runs}: the shipped drops and pushes give at most {4 * len(mixed)} runs")
+    documents = [p.scenario.model_dump(mode="json", exclude_defaults=True) | {"name": f"{p.scenario.name}_{i}"}
+                 for i, p in enumerate(mixed[: runs // 4])]
+    path = folder / f"sweep{runs}.yaml"
+    with open(path, "w") as handle:
+        YAML(typ="safe", pure=True).dump_all(documents, handle)
+    return path
+
+
+def _command_s(command: list[str]) -> float:
+    started = time.perf_counter()
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - started
+
+
+def command_figures(point: ScenarioPoint, runs_list: list[int], repeats: int, sweep_repeats: int,
+                    progress: Callable[[str], None]) -> dict[str, float]:
+    """Whole commands in fresh interpreters: sweeps with 1 and 2 jobs (in turn, `sweep_repeats`
+    pairs, medians), `run one` on the point with `stiff`, and the import time of `run one`'s modules."""
+    from fallbench.scenario import load_scenarios
+
+    cli = [sys.executable, "-m", "fallbench.cli"]
+    index = next(i for i, p in enumerate(load_scenarios([point.source])) if p.label == point.label)
+    figures: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as folder:
+        for runs in runs_list:
+            path = _sweep_file(runs, Path(folder))
+            times: dict[int, list[float]] = {1: [], 2: []}
+            for repeat in range(sweep_repeats):
+                for jobs in (1, 2):
+                    progress(f"whole command: {runs}-run sweep, {jobs} job(s), pair {repeat + 1}/{sweep_repeats}")
+                    results = Path(folder) / f"r{runs}-{jobs}-{repeat}"
+                    times[jobs].append(_command_s(cli + ["run", "sweep", str(path), "--jobs", str(jobs), "--pre-impact", "none",
+                                                         "--results", str(results), "--reports", str(results / "rep"), "--no-progress"]))
+            for jobs in (1, 2):
+                figures[f"e2e_sweep_s_{jobs}job_{runs}"] = statistics.median(times[jobs])
+            figures[f"e2e_speedup_{runs}"] = statistics.median(a / b for a, b in zip(times[1], times[2]))
+        progress("whole command: run one")
+        figures["run_one_s"] = statistics.median(
+            _command_s(cli + ["run", "one", point.source, "--point", str(index), "--policy", "stiff", "--results", str(Path(folder) / f"one{i}")])
+            for i in range(repeats))
+    probe = ("import time; t = time.perf_counter(); import fallbench.cli, fallbench.runner, fallbench.episode, "
+             "fallbench.metrics; print(time.perf_counter() - t)")
+    figures["import_s"] = statistics.median(
+        float(subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True).stdout)
+        for _ in range(repeats))
+    return figures
+
+
+def _synthetic_rows(template: dict[str, Any], first: int, count: int, seed: int) -> Any:
+    """`count` metric rows shaped like `template` (a real run's row): 20 scenarios x 2 strategies
+    x 4 policies, metrics scattered around the template's values."""
+    import pyarrow as pa
+
+    rng = np.random.default_rng(seed)
+    index = np.arange(first, first + count)
+    columns: dict[str, Any] = {}
+    for key, value in template.items():
+        if isinstance(value, bool) or isinstance(value, np.bool_):
+            columns[key] = rng.random(count) < 0.5
+        elif isinstance(value, float):
+            columns[key] = value * (1 + 0.1 * rng.standard_normal(count))
+        else:
+            columns[key] = pa.array([value] * count)
+    columns |= {"run_id": [f"{i:016x}" for i in index], "scenario": [f"scenario_{i % 20}" for i in index],
+                "policy": [POLICIES[i % 4] for i in index], "pre_impact": [("none", "reshape")[i // 4 % 2] for i in index],
+                "point": [f"scenario_{i % 20}#s{i}" for i in index], "seed": index}
+    return pa.table(columns)
+
+
+def store_figures(outcome: Outcome, runs: int, repeats: int, progress: Callable[[str], None]) -> dict[str, float]:
+    """The results store at `runs` synthetic runs (a run folder each, as in a real store): adding
+    one real run (its folder, then `consolidate`) at least 8 times, so the first tier merges once;
+    a grouped SQL query; a read filtered by scenario and policy (pushed down)."""
+    from fallbench import store
+
+    figures: dict[str, float] = {"store_runs": runs}
+    with tempfile.TemporaryDirectory() as folder:
+        results = Path(folder)
+        progress(f"store: building {runs:,} synthetic runs")
+        started = time.perf_counter()
+        (results / store.RUNS).mkdir()
+        for first in range(0, runs, store.MAX_PART_ROWS):
+            rows = _synthetic_rows(outcome.row, first, min(store.MAX_PART_ROWS, runs - first), first)
+            for rid in rows.column("run_id").to_pylist():
+                (results / store.RUNS / rid).mkdir()
+            store.add_rows(results, rows)
+        figures["store_build_s"] = time.perf_counter() - started
+        progress("store: adding runs, querying")
+        adds = []
+        for i in range(max(8, repeats)):
+            row = outcome.row | {"run_id": f"added{i:011d}"}
+            started = time.perf_counter()
+            store.write_run(results, row["run_id"], {"bench": i}, row, outcome.series)
+            store.consolidate(results)
+            adds.append(time.perf_counter() - started)
+        figures["store_add_one_s_median"], figures["store_add_one_s_max"] = statistics.median(adds), max(adds)
+        figures["store_query_s_median"] = _median_time(lambda: store.query(results, GROUPED_QUERY), repeats)
+        figures["store_filtered_read_s_median"] = _median_time(
+            lambda: store.load_metrics(results, scenario=["scenario_3"], policy=["stiff"]), repeats)
+        figures["store_parts"] = len(list((results / store.TABLE).glob("part-*.parquet")))
+        figures["store_table_mb"] = sum(p.stat().st_size for p in (results / store.TABLE).iterdir()) / 1e6
+    return figures
+
+
 def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, sweep_runs: int = 48,
-              progress: Callable[[str], None] = lambda message: None) -> dict[str, Any]:
-    """Every figure as one flat dict (keys documented in the README)."""
+              progress: Callable[[str], None] = lambda message: None, store_runs: int = 100_000,
+              e2e_runs: tuple[int, ...] = (20, 100), e2e_repeats: int = 1) -> dict[str, Any]:
+    """Every figure as one flat dict (keys documented in the README); `store_runs` 0 or an empty
+    `e2e_runs` leaves those parts out."""
     figures: dict[str, Any] = {"scenario": point.label, "pre_impact": pre_impact, "cpu_count": os.cpu_count()}
     progress("warming up")
     warm = run_episode(point.scenario, "stiff", pre_impact)
@@ -150,9 +283,13 @@ def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, 
         figures.update(policy_figures(point, policy, pre_impact, repeats if policy in FIXED else max(2, repeats // 2), physics))
     progress(f"sweep: {sweep_runs} runs with 1 and 2 jobs")
     figures.update(sweep_figures(sweep_specs(point, sweep_runs, pre_impact)))
+    if store_runs:
+        figures.update(store_figures(simulate(RunSpec(point, "stiff", pre_impact)), store_runs, repeats, progress))
+    figures.update(command_figures(point, list(e2e_runs), repeats, e2e_repeats, progress))
     for name, (key, comparison, limit) in TARGETS.items():
-        value = figures[key]
-        figures[f"target_met:{key}"] = bool(value <= limit if comparison == "<=" else value >= limit)
+        if key in figures:
+            value = figures[key]
+            figures[f"target_met:{key}"] = bool(value <= limit if comparison == "<=" else value >= limit)
     return figures
 
 
@@ -175,7 +312,24 @@ def markdown(figures: dict[str, Any]) -> str:
               f"(worker start and model compile {figures['worker_warmup_s']:.1f} s, not counted). Peak RSS: workers "
               f"{figures['worker_peak_rss_mb']:.0f} MB, main process {figures['main_peak_rss_mb']:.0f} MB. "
               f"Stored per run: {figures['bytes_per_run'] / 1024:.0f} KiB.", "",
-              "| target | measured | limit | met |", "|---|---|---|---|"]
+              ]
+    for runs in sorted(int(k.rsplit("_", 1)[1]) for k in figures if k.startswith("e2e_speedup_")):
+        lines += [f"Whole command, {runs}-run sweep of shipped drops and pushes (4 policies, no reshaping), start-up "
+                  f"included: 1 job {figures[f'e2e_sweep_s_1job_{runs}']:.2f} s, 2 jobs {figures[f'e2e_sweep_s_2job_{runs}']:.2f} s, "
+                  f"speedup {figures[f'e2e_speedup_{runs}']:.2f}x.", ""]
+    if "run_one_s" in figures:
+        lines += [f"`fallbench run one` (stiff, whole command): {figures['run_one_s']:.2f} s, of which imports "
+                  f"{figures['import_s']:.2f} s.", ""]
+    if "store_runs" in figures:
+        lines += [f"Results store of {figures['store_runs']:,} runs ({figures['store_parts']} parts, "
+                  f"{figures['store_table_mb']:.1f} MB; built in {figures['store_build_s']:.1f} s): adding one run "
+                  f"median {figures['store_add_one_s_median']:.3f} s, worst {figures['store_add_one_s_max']:.3f} s; "
+                  f"grouped query {figures['store_query_s_median']:.3f} s; filtered read (one scenario, one policy) "
+                  f"{figures['store_filtered_read_s_median']:.3f} s.", ""]
+    lines += ["| target | measured | limit | met |", "|---|---|---|---|"]
     for name, (key, comparison, limit) in TARGETS.items():
-        lines.append(f"| {name} | {figures[key]:.3g} | {comparison} {limit:g} | {'yes' if figures[f'target_met:{key}'] else 'NO'} |")
+        if key in figures:
+            lines.append(f"| {name} | {figures[key]:.3g} | {comparison} {limit:g} | {'yes' if figures[f'target_met:{key}'] else 'NO'} |")
+        else:
+            lines.append(f"| {name} | not measured | {comparison} {limit:g} | - |")
     return "\n".join(lines) + "\n"

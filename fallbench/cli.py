@@ -9,6 +9,7 @@ from typing import Iterable, Optional
 
 import typer
 
+from fallbench.robots import DEFAULT_ROBOT
 from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
 
 SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
@@ -81,7 +82,8 @@ def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> Sc
         key, _, value = selector.partition("=")
         if not value:
             fail(f"--point {selector!r}: expected an index or key=value")
-        chosen = [p for p in chosen if key in p.swept and _same(p.swept[key], value)]
+        chosen = [p for p in chosen if (_same(p.swept[key], value) if key in p.swept
+                                        else key == "robot" and _same(p.scenario.robot, value))]
     if len(chosen) != 1:
         labels = "\n  ".join(f"{i}: {p.label}" for i, p in enumerate(points))
         fail(f"{file}: --point selects {len(chosen)} points, need exactly 1; the points are:\n  {labels}")
@@ -101,7 +103,7 @@ def run_sweep_command(
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."),
-    backend: str = typer.Option("loky", help="loky: processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra)."),
+    backend: str = typer.Option("auto", help="auto: this process for one job or one run, else fork; fork: workers forked from this process (they start with its imports and compiled worlds); loky: fresh processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra)."),
     scheduler: str = typer.Option(None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster of --jobs workers)."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
@@ -191,14 +193,17 @@ def export_command(
 @app.command("bench")
 def bench_command(
     scenario: Path = typer.Option(Path("scenarios/drop.yaml"), help="Scenario file to measure on."),
-    point: list[str] = typer.Option(["initial.height=1.0"], help="Sweep point of the file: an index, or key=value (repeatable)."),
+    point: list[str] = typer.Option(["initial.height=1.0", f"robot={DEFAULT_ROBOT}"], help="Sweep point of the file: an index, or key=value (repeatable; `robot` matches the point's robot)."),
     pre_impact: str = typer.Option("none", help="Pre-impact strategy of the measured episodes."),
     repeats: int = typer.Option(5, min=1, help="Repeats per measurement (medians are reported)."),
     sweep_runs: int = typer.Option(48, min=4, help="Runs in the 1-job vs 2-job throughput sweep (fewer: the last long run alone on one worker weighs more)."),
     out: Path = typer.Option(Path("reports/bench.md"), help="Markdown table to write."),
     json_path: Optional[Path] = typer.Option(None, "--json", help="Also write every figure as one flat JSON object."),
+    store: int = typer.Option(100_000, "--store", min=0, help="Runs in the synthetic results store measured (0: skip)."),
+    e2e_runs: str = typer.Option("20,100", help="Comma-separated sizes of the whole-command sweeps, 1 vs 2 jobs (multiples of 4, at most 100; empty: skip)."),
+    e2e_repeats: int = typer.Option(1, min=1, help="Pairs (1 job, 2 jobs) per whole-command sweep size (medians)."),
 ) -> None:
-    """Measure speed against the physics limit, 2-job scaling, memory and bytes per run.
+    """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store.
 
     Prints and writes a table: pure-physics steps/s; per policy, episode time / pure physics and /
     its own physics time, controller cost per control step; adaptive_qp's QP model, build and solve
@@ -209,7 +214,14 @@ def bench_command(
     from fallbench.bench import markdown, run_bench
 
     chosen = _select(_load([scenario]), point, scenario)
-    figures = run_bench(chosen, _strategies(pre_impact)[0], repeats, sweep_runs, progress=lambda m: typer.echo(f"bench: {m}", err=True))
+    try:
+        sizes = tuple(int(n) for n in e2e_runs.split(",") if n.strip())
+    except ValueError:
+        fail(f"--e2e-runs {e2e_runs!r}: expected comma-separated numbers of runs")
+    if any(n < 4 or n > 100 or n % 4 for n in sizes):
+        fail(f"--e2e-runs {e2e_runs!r}: each size must be a multiple of 4 between 4 and 100")
+    figures = run_bench(chosen, _strategies(pre_impact)[0], repeats, sweep_runs, progress=lambda m: typer.echo(f"bench: {m}", err=True),
+                        store_runs=store, e2e_runs=sizes, e2e_repeats=e2e_repeats)
     table = markdown(figures)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(table)
@@ -237,6 +249,27 @@ def report_command(
     except FileNotFoundError as exc:
         fail(str(exc))
     typer.echo(f"wrote {len(paths)} files; open {out}/index.html (summary in {out}/summary.md)")
+
+
+@app.command("render")
+def render_command(
+    run_id: str = typer.Argument(..., help="Run id (or a unique prefix of one), as `fallbench results --columns run_id,point,policy` lists them."),
+    vs: Optional[str] = typer.Option(None, "--vs", help="A second run, shown side by side on the same clock and camera (e.g. none vs reshape)."),
+    out: Path = typer.Option(Path("fall.mp4"), help="Video to write: .mp4 (H.264) or .gif."),
+    results: Path = typer.Option(Path("results"), help="Results store folder."),
+    fps: int = typer.Option(25, min=1, max=100, help="Frames per second of the video."),
+    speed: float = typer.Option(1.0, min=0.05, max=4.0, help="Playback speed: 0.25 = four times slower than real time."),
+) -> None:
+    """Render a stored fall with MuJoCo's offscreen renderer (EGL on headless Linux) as a video."""
+    from fallbench.report.render import RenderUnavailable, ReplayMissing, video
+
+    if out.suffix.lower() not in (".mp4", ".gif"):
+        fail(f"--out {out}: expected a .mp4 or .gif file")
+    try:
+        path = video(results, [run_id] + ([vs] if vs else []), out, fps=fps, speed=speed)
+    except (RenderUnavailable, ReplayMissing) as exc:
+        fail(str(exc))
+    typer.echo(f"wrote {path}")
 
 
 @app.command("results")

@@ -18,7 +18,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 GRAVITY = 9.81  # m/s^2
 METHODS = ("capture_point", "tilt", "freefall")
@@ -38,7 +37,11 @@ def capture_point(com: np.ndarray, com_velocity: np.ndarray, gravity: float = GR
 
 def support_polygon(points: np.ndarray) -> np.ndarray:
     """Vertices (k, 2), counter-clockwise, of the convex hull of ground-plane points (n, 2).
-    Fewer than three points, or collinear ones, give the degenerate hull: a segment or a point."""
+    Fewer than three points, or collinear ones, give the degenerate hull: a segment or a point.
+    scipy.spatial is imported here, not with the module: it costs ~0.3 s of start-up, and only
+    runs that stand on their feet after a fall could start need it."""
+    from scipy.spatial import ConvexHull, QhullError
+
     points = np.asarray(points, dtype=float)[:, :2]
     if len(points) >= 3:
         try:

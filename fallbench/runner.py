@@ -1,8 +1,11 @@
-"""Sweeps: expand scenarios into runs, simulate them with joblib, store each one, resume.
+"""Sweeps: expand scenarios into runs, simulate them in parallel, store each one, resume.
 
-Workers (loky processes on this machine, or Dask workers on a cluster) only simulate and return
-the metric row and time series; this process stores each run as it arrives. So a cluster needs no
-shared file system, and the store is written by one process only.
+Backends (`choose_backend`): one job or one run runs in this process; on this machine, `fork`
+workers are forked from this process once it has imported the simulation code and compiled the
+sweep's worlds and Pinocchio models, so they start in milliseconds instead of re-importing
+everything (~1 s each), and each stores its own runs (a run folder is written atomically, under
+its own name). `loky` (fresh processes) and `dask` workers only simulate and return the metric row
+and time series; this process stores each run as it arrives, so a cluster needs no shared disk.
 
 One failing run never stops a sweep: it is stored with status `error` (exception) or `diverged`
 (unstable simulation) and the sweep goes on.
@@ -11,6 +14,7 @@ One failing run never stops a sweep: it is stored with status `error` (exception
 from __future__ import annotations
 
 import hashlib
+import importlib
 import time
 import traceback
 from contextlib import ExitStack, contextmanager
@@ -20,16 +24,22 @@ from importlib.metadata import version
 from pathlib import Path
 from typing import Any, Iterator
 
+import multiprocessing
+import signal
+from functools import partial
+from typing import TYPE_CHECKING
+
 import mujoco
 import numpy as np
-import pandas as pd
-from joblib import Parallel, delayed, parallel_config
-from tqdm import tqdm
 
 import fallbench
 from fallbench import store
 from fallbench.robots import get_robot
 from fallbench.scenario import ScenarioPoint
+
+if TYPE_CHECKING:  # pandas and joblib load only when a run or a parallel sweep needs them (start-up time)
+    import pandas as pd
+    from joblib import Parallel
 
 @dataclass(frozen=True)
 class RunSpec:
@@ -129,15 +139,45 @@ def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
     return store_outcome(results, simulate(spec))
 
 
-BACKENDS = ("loky", "dask")
+BACKENDS = ("auto", "fork", "loky", "dask")
+
+
+def choose_backend(backend: str, jobs: int, runs: int) -> str:
+    """`auto`: this process (`sequential`) for one job or one run; else `fork` where the OS forks
+    (Linux, macOS), else `loky`. Any other name is taken as given."""
+    if backend != "auto":
+        return backend
+    if jobs == 1 or runs <= 1:
+        return "sequential"
+    return "fork" if "fork" in multiprocessing.get_all_start_methods() else "loky"
+
+
+def prepare(specs: list[RunSpec]) -> None:
+    """Import the simulation code and compile the specs' worlds and Pinocchio models in this
+    process (at most the world cache's size), so that forked workers inherit them."""
+    from fallbench.dynamics.model import pinocchio_for
+    from fallbench.world import build_world
+
+    for module in ("fallbench.episode", "fallbench.metrics"):  # policies, strategies, pandas
+        importlib.import_module(module)
+    worlds: set[int] = set()
+    for spec in specs:
+        if len(worlds) == 8:  # the world cache's size: compiling more would evict these
+            break
+        world = build_world(spec.point.scenario)
+        if id(world) not in worlds:
+            worlds.add(id(world))
+            pinocchio_for(world)
 
 
 @contextmanager
 def parallel_backend(backend: str, jobs: int, scheduler: str | None = None) -> Iterator[Parallel]:
-    """joblib's Parallel on local processes (loky), or on a Dask cluster: the scheduler at
+    """joblib's Parallel on fresh local processes (loky), or on a Dask cluster: the scheduler at
     `scheduler`, or a LocalCluster of `jobs` single-threaded worker processes."""
+    from joblib import Parallel, parallel_config
+
     if backend == "loky":
-        yield Parallel(n_jobs=jobs, backend="loky" if jobs != 1 else "sequential", return_as="generator_unordered")
+        yield Parallel(n_jobs=jobs, backend="loky", return_as="generator_unordered")
         return
     if backend != "dask":
         raise ValueError(f"unknown backend {backend!r}; known: {', '.join(BACKENDS)}")
@@ -154,6 +194,25 @@ def parallel_backend(backend: str, jobs: int, scheduler: str | None = None) -> I
         yield Parallel(n_jobs=-1, return_as="generator_unordered")
 
 
+def stored_rows(todo: list[RunSpec], results: Path, backend: str, jobs: int, scheduler: str | None = None) -> Iterator[dict[str, Any]]:
+    """Run and store every spec of `todo` (in this order where the backend keeps it); yield each
+    run's metric row as it is stored."""
+    if backend == "sequential":
+        for spec in todo:
+            yield execute(spec, results)
+    elif backend == "fork":
+        prepare(todo)
+        # Ctrl-C reaches this process only; leaving the `with` terminates the workers
+        with multiprocessing.get_context("fork").Pool(jobs, initializer=signal.signal, initargs=(signal.SIGINT, signal.SIG_IGN)) as pool:
+            yield from pool.imap_unordered(partial(execute, results=results), todo)
+    else:
+        from joblib import delayed
+
+        with parallel_backend(backend, jobs, scheduler) as parallel:
+            for outcome in parallel(delayed(simulate)(s) for s in todo):
+                yield store_outcome(results, outcome)
+
+
 def expected_cost(spec: RunSpec) -> float:
     """Relative wall time of a run (measured: a QP policy or reshaping costs ~5x a fixed-gain run),
     used to start the longest runs first so that no worker is left alone with one at the end."""
@@ -161,19 +220,19 @@ def expected_cost(spec: RunSpec) -> float:
 
 
 def run_sweep(specs: list[RunSpec], results: Path, jobs: int = 2, progress: bool = True,
-              backend: str = "loky", scheduler: str | None = None) -> pd.DataFrame:
+              backend: str = "auto", scheduler: str | None = None) -> pd.DataFrame:
     """Run the specs not yet stored, add them to the consolidated table, return the specs' rows."""
+    from tqdm import tqdm
+
     results.mkdir(parents=True, exist_ok=True)
     unique = {s.run_id: s for s in specs}
     todo = sorted((s for rid, s in unique.items() if not store.is_done(results, rid)), key=expected_cost, reverse=True)
     if todo:
-        with parallel_backend(backend, jobs, scheduler) as parallel:
-            outcomes: Iterator[Outcome] = parallel(delayed(simulate)(s) for s in todo)
-            bar = tqdm(outcomes, total=len(todo), desc="falls", unit="run", disable=not progress,
-                       initial=0, postfix={"skipped": len(unique) - len(todo)})
-            for outcome in bar:
-                row = store_outcome(results, outcome)
-                bar.set_postfix_str(f"{row['pre_impact']}/{row['policy']} {row['point']}: {row['status']}")
+        rows = stored_rows(todo, results, choose_backend(backend, jobs, len(todo)), jobs, scheduler)
+        bar = tqdm(rows, total=len(todo), desc="falls", unit="run", disable=not progress,
+                   initial=0, postfix={"skipped": len(unique) - len(todo)})
+        for row in bar:
+            bar.set_postfix_str(f"{row['pre_impact']}/{row['policy']} {row['point']}: {row['status']}")
     store.consolidate(results)
     table = store.load_metrics(results, scenario=sorted({s.point.scenario.name for s in unique.values()}))
     return table[table["run_id"].isin(set(unique))].reset_index(drop=True) if not table.empty else table

@@ -267,12 +267,25 @@ def consolidate(results: Path, full: bool = False) -> int:
         stored = _stored_ids(_parts(table))
         new = sorted(set(_run_names(results)) - stored)
         if new:
-            rows = _concat([pq.read_table(run_dir(results, rid) / METRICS) for rid in new])
-            _write_table(_new_part_path(table), _sorted(_conform(rows, _store_schema(table))))
-            _compact(table)
-            _write_common_metadata(table, _parts(table))
+            _add_part(table, _concat([pq.read_table(run_dir(results, rid) / METRICS) for rid in new]))
         (results / LEGACY_TABLE).unlink(missing_ok=True)  # the single-file table of older versions, now stale
     return len(new)
+
+
+def _add_part(table: Path, rows: pa.Table) -> None:
+    _write_table(_new_part_path(table), _sorted(_conform(rows, _store_schema(table))))
+    _compact(table)
+    _write_common_metadata(table, _parts(table))
+
+
+def add_rows(results: Path, rows: pa.Table) -> None:
+    """Append metric rows as one part (for rows whose run folders exist or are not kept, e.g. the
+    benchmark's synthetic store); `consolidate` is the way for stored runs."""
+    table = results / TABLE
+    table.mkdir(parents=True, exist_ok=True)
+    with _locked(table, exclusive=True):
+        _recover(table)
+        _add_part(table, rows)
 
 
 # ---------------------------------------------------------------- queries (DuckDB)

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from fallbench.store import load_metrics
+
 SCENARIOS = """name: qp_drop
 duration: 0.6
 initial: {height: 1.0}
@@ -27,7 +29,7 @@ def _sweep(path: Path, results: Path, jobs: int) -> pd.DataFrame:
                "--policies", "adaptive_qp", "--pre-impact", "none", "--reports", str(results / "rep"), "--no-progress"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
-    table = pd.read_parquet(results / "metrics.parquet").set_index("run_id").sort_index()
+    table = load_metrics(results).set_index("run_id").sort_index()
     assert set(table.status) == {"ok"} and len(table) == 2
     return table[[c for c in table.columns if not TIMINGS.search(c)]]
 

@@ -13,12 +13,15 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
-from scipy.spatial import ConvexHull, Delaunay
 
 from fallbench.robots.description import RobotDescription
+
+if TYPE_CHECKING:  # scipy.spatial takes ~0.2 s to import: only runs that reshape load it
+    from scipy.spatial import Delaunay
 
 SAMPLES = 4000
 SEED = 0
@@ -32,6 +35,8 @@ class ReachPolyhedron:
     def contains(self, offset: np.ndarray) -> bool:
         """Whether `offset` (m, torso frame, from the centroid) lies inside the polyhedron."""
         if self._triangulation is None:
+            from scipy.spatial import Delaunay
+
             self._triangulation = Delaunay(self.vertices)
         return bool(self._triangulation.find_simplex(offset) >= 0)
 
@@ -59,6 +64,8 @@ def sample_wrist_offsets(model: pin.Model, robot: RobotDescription, side: str, s
 
 
 def _hull_vertices(points: np.ndarray) -> np.ndarray:
+    from scipy.spatial import ConvexHull
+
     vertices = points[ConvexHull(points).vertices]
     return vertices - vertices.mean(axis=0)
 
