@@ -107,8 +107,8 @@ def test_bounds_default_and_options(post_impact) -> None:
     eps = 1e-3
     assert K.max() <= 50.0 + eps and B.max() <= 5.0 + eps and np.all(B >= 0.1 * K - eps)
     limits = step[0].world.torque_limit[step[7]]
-    *_, K, B, e, e_dot = _solve(step, QPConfig(damping_torque_bound=True))
-    assert np.all(B * np.abs(e_dot[step[7]]) <= limits * (1 + 1e-4) + eps)
+    *_, K, B, e, e_dot = _solve(step, QPConfig(damping_bound_speed=1.0))
+    assert np.all(B * np.maximum(np.abs(e_dot[step[7]]), 1.0) <= limits * (1 + 1e-4) + eps)
     assert n_l > 0 and n_s == 12
 
 

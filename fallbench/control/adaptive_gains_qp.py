@@ -17,7 +17,7 @@ Constraints:
 - torque limits of the selected motors (eq. 12): -tau_max <= e K + e_dot B <= tau_max;
 - bounds (eq. 13): lambda >= 0, K >= 0, B >= 0.
 Options, off by default: upper bounds K <= k_max, B <= b_max and the over-damping row
-B >= ratio K (the authors' code after the paper); B |e_dot| <= tau_max (ours).
+B >= ratio K (the authors' code after the paper); B max(|e_dot|, speed) <= tau_max (ours).
 Joint limits are not constraints after impact (002); the posture task keeps joints toward q_ref.
 
 Cost (eq. 14): posture and CoM set-point tasks (eq. 1), tangential contact motion (sliding
@@ -64,8 +64,9 @@ class QPConfig:
     k_max: float | None = None  # Nm/rad (their code: 2000)
     b_max: float | None = None  # Nms/rad (their code: 2000)
     overdamping_ratio: float = 0.0  # B >= ratio K (their code: 0.1)
-    # ours, off by default: held damping cannot ask more than the torque limit at the current speed
-    damping_torque_bound: bool = False
+    # ours, off by default (0): B max(|e_dot|, speed) <= tau_max, so damping chosen at a near-zero
+    # speed cannot ask many times the limit once the joint moves at `speed` (rad/s) between solves
+    damping_bound_speed: float = 0.0
     # extension, off by default: capture point over the centre of the contact points
     w_balance: float = 0.0
     balance_rate: float = 10.0  # 1/s, capture-point convergence rate
@@ -164,8 +165,8 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
         qp.within(overdamping, np.zeros(n_s), np.full(n_s, np.inf))
 
     b_upper = np.full(n_s, np.inf if config.b_max is None else config.b_max)
-    if config.damping_torque_bound:
-        b_upper = np.minimum(b_upper, limit_s / np.maximum(np.abs(e_dot_s), 1e-6))
+    if config.damping_bound_speed > 0:
+        b_upper = np.minimum(b_upper, limit_s / np.maximum(np.abs(e_dot_s), config.damping_bound_speed))
     qp.bound(lam, 0.0, np.inf)
     qp.bound(K, 0.0, np.inf if config.k_max is None else config.k_max)
     qp.bound(B, 0.0, b_upper)
