@@ -9,7 +9,7 @@ import pandas as pd
 from typer.testing import CliRunner
 
 from fallbench.cli import app
-from fallbench.report.claims import claims_table
+from fallbench.report.claims import claims_table, verdict_matrix
 from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
 
 SUITE = """name: drop
@@ -156,3 +156,13 @@ def test_prescription_and_detection_tables_on_hand_made_rows() -> None:
     assert table.loc[("front", "reshape"), "head before hands (%)"] == 100 and len(table) == 4  # the run that did not fall is left out
     detection = detection_table(rows).set_index("fall")
     assert detection.loc["front", "capture_point lead median (s)"] == 1.2 and detection.loc["side", "tilt fired (%)"] == 0
+
+
+def test_verdict_matrix_has_one_row_per_scope() -> None:
+    claims = pd.DataFrame({"robot": "talos", "scope": ["1 m drop", "1 m drop", "all drops"],
+                           "claim (002 Sec. VI)": ["stiff stays off the knee stop", "zero reaches the knee's mechanical stop",
+                                                   "stiff stays off the knee stop"],
+                           "verdict": ["holds", "does not hold", "holds"], "numbers": ""})
+    matrix = verdict_matrix(claims).set_index("scope")
+    assert list(matrix.columns) == ["robot", "stiff: off the stop", "zero: at the stop"]
+    assert matrix.loc["1 m drop", "zero: at the stop"] == "does not hold" and pd.isna(matrix.loc["all drops", "zero: at the stop"])

@@ -10,7 +10,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from fallbench import store
-from fallbench.report.claims import claims_table
+from fallbench.report.claims import claims_table, verdict_matrix
 from fallbench.report.direction import direction_report
 from fallbench.report.preimpact import preimpact_report
 from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torque_figure
@@ -71,10 +71,12 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     pre_paths, pre_tables = pre_paths + direction_paths, pre_tables | direction_tables
     medians = median_table(runs)
     claims = claims_table(runs)
+    verdicts = verdict_matrix(claims)
     failed = runs[runs.status != "ok"][["point", "policy", "status", "error"]]
 
     summary = ["# fallbench report", "", f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.", "",
-               "## Claims of 002 Sec. VI", "", claims.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
+               "## Claims of 002 Sec. VI", "", verdicts.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
+               claims.to_markdown(index=False) if len(claims) else "", "",
                "## Pre-impact strategies (none vs reshape, none vs direction)", ""]
     for title, table in pre_tables.items():
         summary += [f"### {title}", "", table.to_markdown(index=False) if len(table) else "(no runs)", ""]
@@ -90,7 +92,8 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
 
     body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
             f"{len(failed)} failed or diverged.</p>", "<h2>Claims of 002 Sec. VI</h2>",
-            claims.to_html(index=False) if len(claims) else "<p>no drop runs</p>",
+            verdicts.to_html(index=False) if len(claims) else "<p>no drop runs</p>",
+            claims.to_html(index=False) if len(claims) else "",
             "<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>"]
     for title, table in pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", table.to_html(index=False) if len(table) else "<p>no runs</p>"]

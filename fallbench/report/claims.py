@@ -15,6 +15,15 @@ from fallbench.report.style import ordered
 
 STOP = 0.0  # rad: knee margin at or below this = the knee reached its mechanical stop
 LANDING_COLUMNS = ["imu_peak_z_landing", "torque_demand_ratio_landing"]  # NaN in stores written before they existed
+CLAIMS = {  # key: (claim of 002 Sec. VI, short label of the verdict matrix)
+    "stiff_imu": ("stiff has the highest IMU acceleration (landing)", "stiff: highest IMU"),
+    "stiff_knee": ("stiff stays off the knee stop", "stiff: off the stop"),
+    "oneshot_knee": ("oneshot reaches the knee's mechanical stop", "oneshot: at the stop"),
+    "zero_knee": ("zero reaches the knee's mechanical stop", "zero: at the stop"),
+    "adaptive_imu": ("adaptive_qp has a lower IMU acceleration than stiff (landing)", "adaptive_qp: IMU < stiff"),
+    "adaptive_knee": ("adaptive_qp stays off the knee stop", "adaptive_qp: off the stop"),
+    "adaptive_torque": ("adaptive_qp keeps torques under their limits (landing PD demand <= limit)", "adaptive_qp: demand <= limit"),
+}
 
 
 def _values(series: pd.Series, unit: str = "") -> str:
@@ -32,26 +41,26 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
     applied = by.torque_ratio_max.max()
     rows = []
 
-    def claim(text: str, holds: bool | None, numbers: str) -> None:
+    def claim(key: str, holds: bool | None, numbers: str) -> None:
         verdict = "n/a" if holds is None else ("holds" if holds else "does not hold")
-        rows.append({"scope": scope, "claim (002 Sec. VI)": text, "verdict": verdict, "numbers": numbers})
+        rows.append({"scope": scope, "claim (002 Sec. VI)": CLAIMS[key][0], "verdict": verdict, "numbers": numbers})
 
     imu_numbers = f"landing {_values(imu)}; whole episode {_values(whole)} m/s^2 (median IMU z peak)"
     if {"stiff"} <= set(imu.index):
-        claim("stiff has the highest IMU acceleration (landing)", None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
+        claim("stiff_imu", None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
               imu_numbers)
-        claim("stiff stays off the knee stop", bool(knee["stiff"] > STOP), f"stiff min knee margin {knee['stiff']:+.3f} rad")
+        claim("stiff_knee", bool(knee["stiff"] > STOP), f"stiff min knee margin {knee['stiff']:+.3f} rad")
     for policy in ("oneshot", "zero"):
         if policy in knee.index:
-            claim(f"{policy} reaches the knee's mechanical stop", bool(knee[policy] <= STOP),
+            claim(f"{policy}_knee", bool(knee[policy] <= STOP),
                   f"{policy} min knee margin {knee[policy]:+.3f} rad")
     if "adaptive_qp" in imu.index:
         compared = imu.get("stiff", float("nan"))
-        claim("adaptive_qp has a lower IMU acceleration than stiff (landing)",
+        claim("adaptive_imu",
               None if pd.isna(imu["adaptive_qp"]) or pd.isna(compared) else bool(imu["adaptive_qp"] < compared), imu_numbers)
-        claim("adaptive_qp stays off the knee stop", bool(knee["adaptive_qp"] > STOP),
+        claim("adaptive_knee", bool(knee["adaptive_qp"] > STOP),
               f"adaptive_qp min knee margin {knee['adaptive_qp']:+.3f} rad")
-        claim("adaptive_qp keeps torques under their limits (landing PD demand <= limit)",
+        claim("adaptive_torque",
               None if pd.isna(demand["adaptive_qp"]) else bool(demand["adaptive_qp"] <= 1.0),
               f"median max demand/limit {demand['adaptive_qp']:.2f} in the landing (joints under the policy), "
               f"{demand_whole['adaptive_qp']:.2f} over the episode (all joints); "
@@ -97,3 +106,13 @@ def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
         scoped += _sensitivity_claims(robot_runs)
         rows += [{"robot": robot, **row} for row in scoped]
     return pd.DataFrame(rows)
+
+
+def verdict_matrix(claims: pd.DataFrame) -> pd.DataFrame:
+    """The claims table at a glance: one row per (robot, scope), one column per claim, its verdict."""
+    if claims.empty:
+        return claims
+    labels = {text: label for text, label in CLAIMS.values()}
+    matrix = claims.assign(claim=claims["claim (002 Sec. VI)"].map(labels)).pivot_table(
+        index=["robot", "scope"], columns="claim", values="verdict", aggfunc="first", sort=False)
+    return matrix[[label for label in labels.values() if label in matrix.columns]].reset_index()
