@@ -152,10 +152,12 @@ def _sweep_file(runs: int, folder: Path) -> Path:
     """A scenario file of runs / 4 points, drops and pushes in turn from the shipped files."""
     from ruamel.yaml import YAML
 
-    from fallbench.scenario import load_scenarios
+    from fallbench.scenario import Scenario, load_scenarios
 
     shipped = Path(__file__).resolve().parents[1] / "scenarios"
-    drops, pushes = (load_scenarios([shipped / name]) for name in ("drop.yaml", "push.yaml"))
+    default = Scenario.model_fields["robot"].default  # the issue's sweep: one robot
+    drops, pushes = ([p for p in load_scenarios([shipped / name]) if p.scenario.robot == default]
+                     for name in ("drop.yaml", "push.yaml"))
     mixed = [p for pair in zip(drops, pushes) for p in pair] + drops[len(pushes):] + pushes[len(drops):]
     if runs // 4 > len(mixed):
         raise ValueError(f"--e2e-runs {runs}: the shipped drops and pushes give at most {4 * len(mixed)} runs")
@@ -177,9 +179,10 @@ def command_figures(point: ScenarioPoint, runs_list: list[int], repeats: int, sw
                     progress: Callable[[str], None]) -> dict[str, float]:
     """Whole commands in fresh interpreters: sweeps with 1 and 2 jobs (in turn, `sweep_repeats`
     pairs, medians), `run one` on the point with `stiff`, and the import time of `run one`'s modules."""
+    from fallbench.scenario import load_scenarios
+
     cli = [sys.executable, "-m", "fallbench.cli"]
-    selectors = [arg for key, value in point.swept.items() if not key.startswith("randomize:")
-                 for arg in ("--point", f"{key}={value}")] or ["--point", "0"]
+    index = next(i for i, p in enumerate(load_scenarios([point.source])) if p.label == point.label)
     figures: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as folder:
         for runs in runs_list:
@@ -196,7 +199,7 @@ def command_figures(point: ScenarioPoint, runs_list: list[int], repeats: int, sw
             figures[f"e2e_speedup_{runs}"] = statistics.median(a / b for a, b in zip(times[1], times[2]))
         progress("whole command: run one")
         figures["run_one_s"] = statistics.median(
-            _command_s(cli + ["run", "one", point.source, *selectors, "--policy", "stiff", "--results", str(Path(folder) / f"one{i}")])
+            _command_s(cli + ["run", "one", point.source, "--point", str(index), "--policy", "stiff", "--results", str(Path(folder) / f"one{i}")])
             for i in range(repeats))
     probe = ("import time; t = time.perf_counter(); import fallbench.cli, fallbench.runner, fallbench.episode, "
              "fallbench.metrics; print(time.perf_counter() - t)")

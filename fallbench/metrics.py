@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -26,6 +27,8 @@ FELL_HEIGHT_FRACTION = 0.6  # base below this fraction of its standing height = 
 SMOOTHING_WINDOW = 0.005  # s, moving average for the *_5ms IMU peaks
 LANDING_WINDOW = 0.15  # s after the first impact: the landing that 002 Fig. 6 shows, before any later fall
 SAFE_FIRST_GROUPS = {"hands", "feet"}  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
+BODY_WEIGHT_GROUPS = ("total", "head", "torso")  # peak forces also given in body weights
+REPLAY_RATE = 100.0  # Hz at which the full qpos is kept in the time series, for rendering
 
 
 def moving_average(signal: np.ndarray, samples: int) -> np.ndarray:
@@ -169,6 +172,32 @@ def impact_metrics(rec: Recording) -> dict[str, object]:
     return row
 
 
+def damage_metrics(rec: Recording, forces: dict[str, np.ndarray]) -> dict[str, float]:
+    """Damage measures as the learned fall-control literature reports them (SafeFall: peak contact
+    force, peak joint torque, hits on vulnerable parts): peak forces in body weights (m g), the
+    peak applied torque per joint chain (Nm), and how many vulnerable parts touched the environment."""
+    world = rec.world
+    weight = float(world.model.body_subtreemass[world.root_body]) * 9.81
+    row: dict[str, float] = {}
+    for group in BODY_WEIGHT_GROUPS:
+        name = "contact_force_peak" + ("" if group == "total" else f"_{group}")
+        row[f"{name}_bw"] = float(forces[group].max()) / weight if group in forces and len(forces[group]) else float("nan")
+    for chain, pattern in world.robot.torque_chains.items():
+        joints = [j for j, name in enumerate(world.joint_names) if re.fullmatch(pattern, name)]
+        row[f"torque_peak_{chain}"] = float(np.abs(rec.actuator_force[:, joints]).max()) if joints and rec.steps else float("nan")
+    touched = {b for b, c in zip(world.contact_bodies, world.contact_found_columns) if (rec.sensordata[:, c] > 0).any()}
+    row["vulnerable_hits"] = sum(bool(touched & set(bodies)) for bodies in world.robot.vulnerable_parts.values())
+    return row
+
+
+def replay_columns(rec: Recording) -> dict[str, np.ndarray]:
+    """The full qpos every 1/REPLAY_RATE s (NaN between samples): what `fallbench render` replays."""
+    every = max(round(1.0 / (REPLAY_RATE * rec.scenario.physics_dt)), 1)
+    sampled = np.full(rec.qpos.shape, np.nan)
+    sampled[::every] = rec.qpos[::every]
+    return {f"qpos:{i}": sampled[:, i] for i in range(rec.qpos.shape[1])}
+
+
 def compute_metrics(rec: Recording) -> dict[str, object]:
     world, scenario = rec.world, rec.scenario
     dt = scenario.physics_dt
@@ -192,6 +221,7 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["contact_force_peak"] = float(forces["total"].max())
     for group in world.contact_groups:
         row[f"contact_force_peak_{group}"] = float(forces[group].max())
+    row.update(damage_metrics(rec, forces))
     if impact is not None:
         window = (rec.time >= impact) & (rec.time < impact + IMPULSE_WINDOW)
         row["impulse"] = float(forces["total"][window].sum() * dt)
@@ -249,4 +279,5 @@ def timeseries(rec: Recording) -> pd.DataFrame:
         if joint in legs:
             columns[f"K:{joint}"] = rec.kp[:, j]
             columns[f"B:{joint}"] = rec.kd[:, j]
+    columns.update(replay_columns(rec))
     return pd.DataFrame({k: np.asarray(v, dtype=np.float32) for k, v in columns.items()})

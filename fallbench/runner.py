@@ -14,6 +14,7 @@ One failing run never stops a sweep: it is stored with status `error` (exception
 from __future__ import annotations
 
 import hashlib
+import importlib
 import time
 import traceback
 from contextlib import ExitStack, contextmanager
@@ -154,16 +155,17 @@ def choose_backend(backend: str, jobs: int, runs: int) -> str:
 def prepare(specs: list[RunSpec]) -> None:
     """Import the simulation code and compile the specs' worlds and Pinocchio models in this
     process (at most the world cache's size), so that forked workers inherit them."""
-    import fallbench.metrics  # noqa: F401  (pandas and the metric code)
     from fallbench.dynamics.model import pinocchio_for
     from fallbench.world import build_world
 
-    if any(s.pre_impact == "reshape" for s in specs):
-        import fallbench.control.reshape  # noqa: F401  (inherited by the workers)
+    for module in ("fallbench.episode", "fallbench.metrics"):  # policies, strategies, pandas
+        importlib.import_module(module)
     worlds: set[int] = set()
     for spec in specs:
+        if len(worlds) == 8:  # the world cache's size: compiling more would evict these
+            break
         world = build_world(spec.point.scenario)
-        if id(world) not in worlds and len(worlds) < 8:
+        if id(world) not in worlds:
             worlds.add(id(world))
             pinocchio_for(world)
 

@@ -40,11 +40,11 @@ from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.dynamics.terms import model_terms
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
+from fallbench.support import body_box_corners, world_corners
 from fallbench.world import World
 
 UP = np.array([0.0, 0.0, 1.0])
 PIVOTS = ("contacts", "knees", "knees_and_buttocks")
-UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
 
 
 @dataclass(frozen=True)
@@ -75,7 +75,7 @@ class ReshapeConfig:
     w_lambda: float = 1e-6
     w_qdd: float = 1e-4
     w_contact: float = 100.0  # contact points neither sinking in nor lifting off (a cost, not a constraint)
-    pivot: Literal["contacts", "knees", "knees_and_buttocks"] = "knees"  # the landing search's stick pivot, see _pivot
+    pivot: Literal["contacts", "knees", "knees_and_buttocks"] = "contacts"  # the landing search's stick, see _stick
     eps_abs: float = 1e-6
     # Iteration caps bound the solver's rare very long solves (seen: 49 s with ProxSuite's
     # defaults); a capped solve counts as a failure and the references coast for that step.
@@ -113,10 +113,7 @@ class ReshapeController:
         self.wrists = {side: BodyPoint(arm.wrist_frame, np.zeros(3)) for side, arm in robot.arms.items()}
         self.knees = [BodyPoint(world.model.body(world.model.jnt_bodyid[world.model.joint(j).id]).name, np.zeros(3))
                       for j in robot.knee_joints]
-        root = world.root_body
-        self.butt_geoms = np.flatnonzero((world.model.geom_bodyid == root) & (world.model.geom_contype > 0))
-        aabb = world.model.geom_aabb[self.butt_geoms]
-        self.butt_corners = aabb[:, None, :3] + UNIT_CORNERS[None] * aabb[:, None, 3:]  # geom frames
+        self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
         leg_joints = [j for root in (leg[0] for leg in robot.legs.values()) for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
         self.qp = DenseQP(self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
@@ -134,12 +131,13 @@ class ReshapeController:
         self.q_ref, self.qd_ref = q.copy(), qd.copy()
 
     def _landing_tasks(self, t: float, direction: np.ndarray, facing: str, torso_rotation: np.ndarray,
-                       support: np.ndarray) -> list[SetPoint]:
+                       stick: tuple[np.ndarray, float]) -> list[SetPoint]:
         model, pdata = self.P.model, self.P.data
         lateral = np.cross(UP, direction)
+        support, drop = stick
         pairs, tasks = [], []
         for side, arm in self.world.robot.arms.items():
-            shoulder = pdata.oMi[model.getJointId(arm.shoulder_joint)].translation
+            shoulder = pdata.oMi[model.getJointId(arm.shoulder_joint)].translation - drop * UP
             pivot = support + float((shoulder - support) @ lateral) * lateral
             chosen = choose(landing_candidates(pivot, shoulder, direction, self.surfaces, torso_rotation,
                                                self.reach[f"{side}:{facing}"]))
@@ -172,7 +170,7 @@ class ReshapeController:
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)
-        tasks += self._landing_tasks(t, direction, facing, torso_rotation, self._pivot(data, support, direction))
+        tasks += self._landing_tasks(t, direction, facing, torso_rotation, self._stick(data, support, direction))
         if facing == "back":
             tasks += self._hands_below_butt(data)
         elif len(self.knees) == 2:
@@ -196,28 +194,27 @@ class ReshapeController:
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
 
-    def _pivot(self, data: mujoco.MjData, support: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        """The stick's ground point (002 Sec. IV-B). `contacts`: the mean of the contact points, as
-        in 002. `knees`: the point farthest along the fall direction among that one and the ground
-        projections of the knees: a robot that crouches while it falls forward lands on its knees
-        and turns about them, not about its feet, so the shoulders' circle is smaller and nearer.
-        `knees_and_buttocks` adds the buttocks' lowest corner, for back falls."""
-        if self.cfg.pivot == "contacts":
-            return support
-        candidates = [support] + [self._on_ground(knee.kinematics(self.P.model, self.P.data)[0], support)
-                                  for knee in self.knees]
-        if self.cfg.pivot == "knees_and_buttocks":
-            candidates.append(self._on_ground(self._butt_point(data), support))
-        return max(candidates, key=lambda point: float(point @ direction))
+    def _stick(self, data: mujoco.MjData, support: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, float]:
+        """The stick's ground pivot (002 Sec. IV-B) and the height (m) the robot drops onto it.
 
-    @staticmethod
-    def _on_ground(point: np.ndarray, support: np.ndarray) -> np.ndarray:
-        return np.array([point[0], point[1], support[2]])
+        `contacts`: the mean of the contact points, no drop, as in 002. `knees`: the point farthest
+        along the fall direction among that one and the knees: a robot that crouches while it falls
+        forward drops onto its knees and then turns about them, so the stick stands on the knee's
+        ground projection with the knee-to-shoulder length (the shoulders are lowered by the knee's
+        height). `knees_and_buttocks` adds the buttocks' lowest corner, for back falls."""
+        if self.cfg.pivot == "contacts":
+            return support, 0.0
+        candidates = [knee.kinematics(self.P.model, self.P.data)[0] for knee in self.knees]
+        if self.cfg.pivot == "knees_and_buttocks":
+            candidates.append(self._butt_point(data))
+        lead = max(candidates, key=lambda point: float(point @ direction))
+        if float(lead @ direction) <= float(support @ direction):
+            return support, 0.0
+        return np.array([lead[0], lead[1], support[2]]), max(float(lead[2] - support[2]), 0.0)
 
     def _butt_point(self, data: mujoco.MjData) -> np.ndarray:
         """Lowest corner (m, world) of the root body's collision geometry (the buttocks)."""
-        corners = np.concatenate([c @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
-                                  for g, c in zip(self.butt_geoms, self.butt_corners)])
+        corners = world_corners(data, self.butt_geoms, self.butt_corners)
         return corners[np.argmin(corners[:, 2])]
 
     def _hands_below_butt(self, data: mujoco.MjData) -> list[SetPoint]:

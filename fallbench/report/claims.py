@@ -18,7 +18,7 @@ LANDING_COLUMNS = ["imu_peak_z_landing", "torque_demand_ratio_landing"]  # NaN i
 
 
 def _values(series: pd.Series, unit: str = "") -> str:
-    return ", ".join(f"{p} {series[p]:.0f}" for p in ordered(series.index)) + unit
+    return ", ".join(f"{p} {series[p]:.1f}" for p in ordered(series.index)) + unit
 
 
 def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:

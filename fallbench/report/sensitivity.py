@@ -34,13 +34,14 @@ def sensitivity_runs(runs: pd.DataFrame) -> pd.DataFrame:
     if GAIN_SCALE not in runs:
         return pd.DataFrame()
     swept = with_robot(runs[(runs.status == "ok") & runs[GAIN_SCALE].notna() & (runs.pre_impact == "none")])
-    labels = swept.policy.astype(str)
-    for column in sorted(c for c in swept.columns if c.startswith("param:policy_params.") and c != GAIN_SCALE):
-        policy, key = column.removeprefix("param:policy_params.").split(".", 1)
-        own = (swept.policy == policy) & swept[column].notna()
-        labels = labels.where(~own, labels + f", {key}=" + swept[column].map(value_label))
-    if swept.robot.nunique() > 1:
-        labels = labels + " (" + swept.robot + ")"
+    own = [(c, *c.removeprefix("param:policy_params.").split(".", 1)) for c in sorted(swept.columns)
+           if c.startswith("param:policy_params.") and c != GAIN_SCALE]  # (column, policy, key)
+    several_robots = swept.robot.nunique() > 1
+    labels = []
+    for _, run in swept.iterrows():
+        label = ", ".join([str(run.policy)] + [f"{key}={value_label(run[column])}" for column, policy, key in own
+                                                if policy == run.policy and pd.notna(run[column])])
+        labels.append(label + (f" ({run.robot})" if several_robots else ""))
     return swept.assign(line=labels, gain_scale=swept[GAIN_SCALE].astype(float))
 
 

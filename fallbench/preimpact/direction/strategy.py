@@ -21,11 +21,10 @@ import pinocchio as pin
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.events import capture_point, support_polygon
 from fallbench.preimpact.base import Strategy
-from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate
+from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, landed_states, predict, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
 from fallbench.preimpact.direction.inertia import damped_solve, desired_inertia, inertia_about, inertia_jacobian, to_vector
-from fallbench.preimpact.direction.pendulum import rollout
 from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
 from fallbench.preimpact.direction.stepping import swing_velocity
@@ -185,14 +184,19 @@ class DirectionStrategy(Strategy):
         if self.tracked is not None and t - self.tracked < config.tracking_period - 1e-9:
             return
         self.tracked = t
-        polygon = plan.chosen.polygon
-        if plan.chosen.kind == "take_step" and self.step_done is not None:
-            polygon = support_polygon(np.vstack([sole_corners(self.world.model, data, self.feet[side]) for side in self.feet]))
-        pivot = nearest_pivot(polygon, capture_point(com, com_velocity))
-        fall = rollout(pivot.point[None], (np.zeros(2) if pivot.edge is None else pivot.edge)[None], com[None], com_velocity[None],
-                       0.0, config.touchdown_fraction * self.com_height)
-        end = fall.end[0, :2] - self.origin
-        if score(math.atan2(end[1], end[0]), self.regions, config.w1, config.w2) > 1.0:
+        state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
+        polygon, coms, velocities = plan.chosen.polygon, com[None], com_velocity[None]
+        soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
+        if plan.chosen.kind == "take_step" and self.step_done is None:  # in flight: on the stance foot until it lands
+            assert plan.chosen.swing is not None and plan.chosen.target is not None
+            stance = next(soles[side] for side in soles if side != plan.chosen.swing)
+            remaining = float(np.linalg.norm(plan.chosen.target - soles[plan.chosen.swing].mean(axis=0))) / config.foot_speed
+            on_stance, _ = predict([stance], coms, velocities, state)
+            coms, velocities = landed_states(on_stance, 0, np.array([remaining]))
+        elif plan.chosen.kind == "take_step":
+            polygon = support_polygon(np.vstack(list(soles.values())))
+        directions, _, _ = step_directions([polygon], coms, velocities, self.origin, state)
+        if score(float(directions[0]), self.regions, config.w1, config.w2) > 1.0:
             plan.inertia_shaping, self.tracking_switch = "wbis", t
 
     def _shape(self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray) -> None:
