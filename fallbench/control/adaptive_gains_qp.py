@@ -2,7 +2,8 @@
 
 Decision vector y = (lambda, K_S, B_S): friction-cone coefficients of the contact points and PD
 stiffness (Nm/rad) and damping (Nms/rad) of the selected motors S; scaled for the solver
-(lambda / 100 N; K and B so that K e and B e_dot are ~100 Nm per unit). The joint accelerations of X = (q_ddot, lambda, K, B) in 002 are
+(lambda / 100 N; K and B so that K e and B e_dot are ~100 Nm per unit; then Jacobi scaling).
+The joint accelerations of X = (q_ddot, lambda, K, B) in 002 are
 eliminated through the dynamics (eq. 10 with eq. 15's selected rows):
 
     q_ddot = H^-1 (J' G lambda + S_S' (e_S K_S + e_dot_S B_S) + S_NS' tau_NS - C),
@@ -70,7 +71,7 @@ class QPConfig:
     # extension, off by default: capture point over the centre of the contact points
     w_balance: float = 0.0
     balance_rate: float = 10.0  # 1/s, capture-point convergence rate
-    ridge: float = 0.1  # numerical regularisation, per solver unit squared (see the README)
+    ridge: float = 1e-3  # numerical regularisation, relative to the equilibrated Hessian's unit diagonal
     eps_abs: float = 1e-6
     # Iteration caps bound the solver's rare very long solves (seen: 62 s uncapped after the fall);
     # a capped solve counts as a failure and the last gains are kept.
@@ -174,7 +175,7 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
     qp.cost(_tasks(P, terms, points, q_ref, com_ref, dt, config))
     qp.regularise(lam, config.w_lambda)
     qp.regularise(slice(n_l, n_l + 2 * n_s), config.w_gains)
-    problem = qp.build(config.ridge)
+    problem = qp.build(config.ridge, equilibrate=True)
     return QPProblem(**vars(problem), n_lambda=n_l, selected=selected, acceleration=acceleration)
 
 

@@ -47,17 +47,24 @@ class QPBuilder:
     def bound(self, variables: slice, lower: float | np.ndarray, upper: float | np.ndarray) -> None:
         self.lower[variables], self.upper[variables] = lower, upper
 
-    def build(self, ridge: float = 0.0) -> ScaledQP:
-        """The scaled problem; `ridge` adds ridge |x|^2 in solver units (a numerical regularisation
-        that keeps nearly free directions, e.g. redundant friction-cone coefficients, from slowing
-        the solver down)."""
-        n, scale = len(self.scale), self.scale
+    def build(self, ridge: float = 0.0, equilibrate: bool = False) -> ScaledQP:
+        """The scaled problem. With `equilibrate` the variables are further scaled so that the
+        Hessian's diagonal is one (Jacobi scaling: on these problems it cut ProxSuite's iterations
+        several times over, more on lighter robots whose cost curvatures spread wider). `ridge`
+        then adds ridge |x|^2 in solver units, a numerical regularisation that keeps nearly free
+        directions (redundant friction-cone coefficients, gains whose error is near zero) from
+        slowing the solver down."""
+        n = len(self.scale)
         A = np.vstack([a for a, _ in self.equalities]) if self.equalities else np.zeros((0, n))
         b = np.concatenate([b for _, b in self.equalities]) if self.equalities else np.zeros(0)
         C = np.vstack([c for c, _, _ in self.inequalities]) if self.inequalities else np.zeros((0, n))
         l = np.concatenate([lo for _, lo, _ in self.inequalities]) if self.inequalities else np.zeros(0)
         u = np.concatenate([up for _, _, up in self.inequalities]) if self.inequalities else np.zeros(0)
+        scale = self.scale
+        if equilibrate:
+            curvature = np.diag(self.H) * scale**2
+            scale = scale / np.sqrt(np.where(curvature > 0, curvature, 1.0))
         H = scale[:, None] * self.H * scale[None, :]
         H[np.diag_indices(n)] += ridge
-        return ScaledQP(H=H, g=scale * self.g, A=A * scale, b=b, C=C * scale,
-                        l=l, u=u, l_box=self.lower / scale, u_box=self.upper / scale, scale=scale)
+        return ScaledQP(H=H, g=scale * self.g, A=A * scale, b=b, C=C * scale, l=l, u=u,
+                        l_box=self.lower / scale, u_box=self.upper / scale, scale=scale)
