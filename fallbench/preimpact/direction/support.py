@@ -10,21 +10,13 @@ import mujoco
 import numpy as np
 
 from fallbench.events import support_polygon
-
-UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
-
+from fallbench.support import body_box_corners, world_corners
 
 def sole_corners(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.ndarray:
     """(k, 2) ground-plane hull of the foot body's collision geometry (its geoms' bounding-box
     corners), m, world: the sole when the foot is flat."""
-    body_id = model.body(body).id
-    geoms = np.flatnonzero((model.geom_bodyid == body_id) & (model.geom_contype > 0))
-    corners = []
-    for geom in geoms:
-        centre, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
-        local = centre + UNIT_CORNERS * half
-        corners.append(local @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom])
-    return support_polygon(np.concatenate(corners)[:, :2])
+    geoms, corners = body_box_corners(model, model.body(body).id)
+    return support_polygon(world_corners(data, geoms, corners)[:, :2])
 
 
 def contains(polygon: np.ndarray, point: np.ndarray) -> bool:
