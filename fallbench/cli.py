@@ -9,6 +9,7 @@ from typing import Iterable, Optional
 
 import typer
 
+from fallbench.robots import DEFAULT_ROBOT
 from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
 
 SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
@@ -81,7 +82,8 @@ def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> Sc
         key, _, value = selector.partition("=")
         if not value:
             fail(f"--point {selector!r}: expected an index or key=value")
-        chosen = [p for p in chosen if key in p.swept and _same(p.swept[key], value)]
+        chosen = [p for p in chosen if (_same(p.swept[key], value) if key in p.swept
+                                        else key == "robot" and _same(p.scenario.robot, value))]
     if len(chosen) != 1:
         labels = "\n  ".join(f"{i}: {p.label}" for i, p in enumerate(points))
         fail(f"{file}: --point selects {len(chosen)} points, need exactly 1; the points are:\n  {labels}")
@@ -191,7 +193,7 @@ def export_command(
 @app.command("bench")
 def bench_command(
     scenario: Path = typer.Option(Path("scenarios/drop.yaml"), help="Scenario file to measure on."),
-    point: list[str] = typer.Option(["3"], help="Sweep point of the file: an index, or key=value (repeatable); default: the 1 m drop of the default robot."),
+    point: list[str] = typer.Option(["initial.height=1.0", f"robot={DEFAULT_ROBOT}"], help="Sweep point of the file: an index, or key=value (repeatable; `robot` matches the point's robot)."),
     pre_impact: str = typer.Option("none", help="Pre-impact strategy of the measured episodes."),
     repeats: int = typer.Option(5, min=1, help="Repeats per measurement (medians are reported)."),
     sweep_runs: int = typer.Option(48, min=4, help="Runs in the 1-job vs 2-job throughput sweep (fewer: the last long run alone on one worker weighs more)."),
@@ -247,6 +249,27 @@ def report_command(
     except FileNotFoundError as exc:
         fail(str(exc))
     typer.echo(f"wrote {len(paths)} files; open {out}/index.html (summary in {out}/summary.md)")
+
+
+@app.command("render")
+def render_command(
+    run_id: str = typer.Argument(..., help="Run id (or a unique prefix of one), as `fallbench results --columns run_id,point,policy` lists them."),
+    vs: Optional[str] = typer.Option(None, "--vs", help="A second run, shown side by side on the same clock and camera (e.g. none vs reshape)."),
+    out: Path = typer.Option(Path("fall.mp4"), help="Video to write: .mp4 (H.264) or .gif."),
+    results: Path = typer.Option(Path("results"), help="Results store folder."),
+    fps: int = typer.Option(25, min=1, max=100, help="Frames per second of the video."),
+    speed: float = typer.Option(1.0, min=0.05, max=4.0, help="Playback speed: 0.25 = four times slower than real time."),
+) -> None:
+    """Render a stored fall with MuJoCo's offscreen renderer (EGL on headless Linux) as a video."""
+    from fallbench.report.render import RenderUnavailable, ReplayMissing, video
+
+    if out.suffix.lower() not in (".mp4", ".gif"):
+        fail(f"--out {out}: expected a .mp4 or .gif file")
+    try:
+        path = video(results, [run_id] + ([vs] if vs else []), out, fps=fps, speed=speed)
+    except (RenderUnavailable, ReplayMissing) as exc:
+        fail(str(exc))
+    typer.echo(f"wrote {path}")
 
 
 @app.command("results")

@@ -26,8 +26,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import select_motors
-from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.events import (CapturePointDetector, FallDetector, FreefallDetector, ImpactDetector,
                               TiltDetector)
 from fallbench.impacts import ImpactEvent, ImpactLog
@@ -74,6 +73,7 @@ class Recording:
     physics_s: float = 0.0  # s of wall time inside mj_step
     pre_impact: str = "none"
     impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
+    contact_times: dict[str, float] = field(default_factory=dict)  # s, first contact of each body after the fall was detected
     landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
     policy_stats: dict[str, float] = field(default_factory=dict)
     strategy: Strategy | None = None  # the pre-impact strategy, for its own metrics
@@ -270,6 +270,7 @@ def run_episode(scenario: Scenario, policy_name: str, pre_impact: str = "none") 
         kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
         fall_time=fall.time, fall_reason=fall.reason, fall_times=dict(fall.times), impact_time=impact.time, impact_bodies=impact.bodies,
         controller_ms=np.array(controller_ms), physics_s=physics_s, pre_impact=pre_impact, impact_events=impacts.events,
+        contact_times={body: contact.t for body, contact in impacts.first_contacts.items()},
         landing_errors=landing_errors, policy_stats=policy.stats() | strategy.stats(), strategy=strategy,
         switch_time=switch_time, policy_failure_times=_failure_times(policy), steps=step, status=status, error=error,
     )

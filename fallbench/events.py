@@ -38,50 +38,36 @@ def capture_point(com: np.ndarray, com_velocity: np.ndarray, gravity: float = GR
 def support_polygon(points: np.ndarray) -> np.ndarray:
     """Vertices (k, 2), counter-clockwise, of the convex hull of ground-plane points (n, 2).
     Fewer than three points, or collinear ones, give the degenerate hull: a segment or a point.
+    scipy.spatial is imported here, not with the module: it costs ~0.3 s of start-up, and only
+    runs that stand on their feet after a fall could start need it."""
+    from scipy.spatial import ConvexHull, QhullError
 
-    Andrew's monotone chain: the hull of a few foot corners, at every control step; scipy's Qhull
-    would do it too, but importing scipy.spatial costs every command ~0.3 s of start-up."""
-    points = np.unique(np.asarray(points, dtype=float)[:, :2], axis=0)  # sorted by x, then y
-    if len(points) <= 2:
+    points = np.asarray(points, dtype=float)[:, :2]
+    if len(points) >= 3:
+        try:
+            return points[ConvexHull(points).vertices]
+        except QhullError:  # collinear or repeated: handled below
+            pass
+    points = np.unique(points, axis=0)
+    if len(points) <= 1:
         return points
-    lower, upper = _chain(points), _chain(points[::-1])
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def _chain(points: np.ndarray) -> list[np.ndarray]:
-    """One half of the hull: the points where the chain turns left (collinear ones dropped)."""
-    chain: list[np.ndarray] = []
-    for point in points:
-        while len(chain) >= 2 and _cross(chain[-2], chain[-1], point) <= 0:
-            chain.pop()
-        chain.append(point)
-    return chain
-
-
-def _cross(origin: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    return float((a[0] - origin[0]) * (b[1] - origin[1]) - (a[1] - origin[1]) * (b[0] - origin[0]))
-
-
-def _segment_distance(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    ab = b - a
-    length2 = float(ab @ ab)
-    s = 0.0 if length2 < 1e-18 else float(np.clip((point - a) @ ab / length2, 0.0, 1.0))
-    return float(np.linalg.norm(point - a - s * ab))
+    order = np.argsort(points @ (points[-1] - points[0]))
+    return points[[order[0], order[-1]]]
 
 
 def signed_distance(point: np.ndarray, polygon: np.ndarray) -> float:
     """Distance (m) from a ground-plane point to a convex polygon (counter-clockwise vertices):
     positive outside, negative inside (minus the distance to the nearest edge)."""
-    point = np.asarray(point, dtype=float)[:2]
     if len(polygon) == 0:
         return math.inf
-    edges = [_segment_distance(point, polygon[i], polygon[(i + 1) % len(polygon)]) for i in range(len(polygon))]
-    if len(polygon) < 3:
-        return min(edges)
-    tangents = np.roll(polygon, -1, axis=0) - polygon
-    cross = tangents[:, 0] * (point[1] - polygon[:, 1]) - tangents[:, 1] * (point[0] - polygon[:, 0])
-    inside = bool((cross >= 0).all())
-    return -min(edges) if inside else min(edges)
+    start, edge = polygon, np.roll(polygon, -1, axis=0) - polygon
+    offset = np.asarray(point, dtype=float)[:2] - start
+    length2 = (edge * edge).sum(axis=1)
+    along = np.clip((offset * edge).sum(axis=1) / np.where(length2 > 1e-18, length2, 1.0), 0.0, 1.0)
+    nearest = (offset - along[:, None] * edge)
+    distance = float(np.sqrt((nearest * nearest).sum(axis=1)).min())
+    inside = len(polygon) >= 3 and bool((edge[:, 0] * offset[:, 1] - edge[:, 1] * offset[:, 0] >= 0).all())
+    return -distance if inside else distance
 
 
 @dataclass

@@ -8,10 +8,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import select_motors
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.control.fall_singularity import Impact, singular_joints
-from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.world import World
 
 
@@ -86,3 +85,90 @@ class ImpactLog:
             return None
         body = min(hands, key=lambda b: self.first_contacts[b].t)
         return body, self.first_contacts[body]
+
+
+# ---------------------------------------------------------------- landing order against 000's prescriptions
+
+KNEES_TOGETHER = 0.02  # s: both knees "at the same moment" (000 Sec. IV-B)
+
+
+@dataclass(frozen=True)
+class Touch:
+    """A body's first contact with the environment after the fall was detected."""
+
+    t: float  # s
+    group: str  # body group: feet, knees, hands, arms (elbows), torso, head
+    side: str  # "left"/"right": the limb the body hangs from; "" on the trunk
+
+
+def body_sides(world: World) -> dict[str, str]:
+    """Side of every contact body: the arm (shoulder joint) or leg (first joint) it hangs from."""
+    model, robot = world.model, world.robot
+    roots = {model.jnt_bodyid[model.joint(arm.shoulder_joint).id]: side for side, arm in robot.arms.items()}
+    roots |= {model.jnt_bodyid[model.joint(joint).id]: side for side, (joint, *_) in robot.legs.items()}
+    sides = {}
+    for body in world.contact_bodies:
+        b = model.body(body).id
+        while b > 0 and b not in roots:
+            b = model.body_parentid[b]
+        sides[body] = roots.get(b, "")
+    return sides
+
+
+def touches(world: World, contact_times: dict[str, float]) -> list[Touch]:
+    """The episode's first contacts per body, in time order, with their group and side."""
+    group_of = {b: g for g, bodies in world.robot.body_groups.items() for b in bodies}
+    sides = body_sides(world)
+    return sorted((Touch(t, group_of.get(b, "other"), sides.get(b, "")) for b, t in contact_times.items()),
+                  key=lambda touch: (touch.t, touch.group, touch.side))
+
+
+def _first(touches: list[Touch], group: str, side: str | None = None) -> float | None:
+    return next((x.t for x in touches if x.group == group and (side is None or x.side == side)), None)
+
+
+def _before(a: float | None, b: float | None) -> bool:
+    """a happened, and strictly before b (or b never happened)."""
+    return a is not None and (b is None or a < b)
+
+
+def knees_simultaneous(touches: list[Touch]) -> float:
+    """1.0 if both knees landed within KNEES_TOGETHER s, 0.0 if one knee landed alone (the other
+    later or never), NaN when the knees did not land before the torso and head (not a knee landing)."""
+    trunk = [t for t in (_first(touches, "torso"), _first(touches, "head")) if t is not None]
+    knees = [_first(touches, "knees", side) for side in ("left", "right")]
+    landed = [t for t in knees if t is not None]
+    if not landed or (trunk and min(landed) >= min(trunk)):
+        return float("nan")
+    return float(len(landed) == 2 and abs(landed[0] - landed[1]) <= KNEES_TOGETHER + 1e-9)
+
+
+def head_before_hands(touches: list[Touch]) -> bool:
+    """The head touched, and before any hand (or no hand touched at all)."""
+    return _before(_first(touches, "head"), _first(touches, "hands"))
+
+
+def first_impact_prescribed(touches: list[Touch], fall_class: str) -> bool:
+    """The landing order 000 prescribes for this class of fall (feet ignored: they are the support):
+
+    - every class: never the elbows (upper arms) first (Sec. III, Def. 1);
+    - `front`: the hands first, or both knees together (within 20 ms), never one knee alone;
+      then the hands before the head (Sec. IV-B);
+    - `back`: the hands (wrists) before the buttocks/torso and the head (Sec. IV-C);
+    - `left`/`right`: no head contact, and that side's hand before the hip/torso (Sec. IV-D).
+    """
+    landing = [x for x in touches if x.group != "feet"]
+    if not landing or fall_class not in ("front", "back", "left", "right"):
+        return False
+    first = {x.group for x in landing if x.t == landing[0].t}
+    if "arms" in first:
+        return False
+    hands, torso, head = _first(landing, "hands"), _first(landing, "torso"), _first(landing, "head")
+    if fall_class == "front":
+        knees_together = knees_simultaneous(landing) == 1.0
+        hands_first = "hands" in first and ("knees" not in first or knees_together)
+        knees_first = "knees" in first and knees_together
+        return first <= {"hands", "knees"} and (hands_first or knees_first) and _before(hands, head)
+    if fall_class == "back":
+        return _before(hands, torso) and _before(hands, head)
+    return head is None and _before(_first(landing, "hands", fall_class), torso)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -17,6 +18,7 @@ from fallbench.control.fall_direction import fall_class, horizontal_unit
 from fallbench.episode import Recording
 from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
 from fallbench.events import METHODS
+from fallbench.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
@@ -25,6 +27,8 @@ FELL_HEIGHT_FRACTION = 0.6  # base below this fraction of its standing height = 
 SMOOTHING_WINDOW = 0.005  # s, moving average for the *_5ms IMU peaks
 LANDING_WINDOW = 0.15  # s after the first impact: the landing that 002 Fig. 6 shows, before any later fall
 SAFE_FIRST_GROUPS = {"hands", "feet"}  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
+BODY_WEIGHT_GROUPS = ("total", "head", "torso")  # peak forces also given in body weights
+REPLAY_RATE = 100.0  # Hz at which the full qpos is kept in the time series, for rendering
 
 
 def moving_average(signal: np.ndarray, samples: int) -> np.ndarray:
@@ -161,7 +165,37 @@ def impact_metrics(rec: Recording) -> dict[str, object]:
         row[f"landing_error_{side}"] = errors.get(side, float("nan"))
     row["landing_error"] = float(np.mean(list(errors.values()))) if errors else float("nan")
     row["fall_direction_deg"], row["fall_class"] = fall_class_at_impact(rec)
+    landing = touches(rec.world, rec.contact_times)
+    row["first_impact_prescribed"] = first_impact_prescribed(landing, str(row["fall_class"]))
+    row["knees_simultaneous"] = knees_simultaneous(landing)
+    row["head_before_hands"] = head_before_hands(landing)
     return row
+
+
+def damage_metrics(rec: Recording, forces: dict[str, np.ndarray]) -> dict[str, float]:
+    """Damage measures as the learned fall-control literature reports them (SafeFall: peak contact
+    force, peak joint torque, hits on vulnerable parts): peak forces in body weights (m g), the
+    peak applied torque per joint chain (Nm), and how many vulnerable parts touched the environment."""
+    world = rec.world
+    weight = float(world.model.body_subtreemass[world.root_body]) * 9.81
+    row: dict[str, float] = {}
+    for group in BODY_WEIGHT_GROUPS:
+        name = "contact_force_peak" + ("" if group == "total" else f"_{group}")
+        row[f"{name}_bw"] = float(forces[group].max()) / weight if group in forces and len(forces[group]) else float("nan")
+    for chain, pattern in world.robot.torque_chains.items():
+        joints = [j for j, name in enumerate(world.joint_names) if re.fullmatch(pattern, name)]
+        row[f"torque_peak_{chain}"] = float(np.abs(rec.actuator_force[:, joints]).max()) if joints and rec.steps else float("nan")
+    touched = {b for b, c in zip(world.contact_bodies, world.contact_found_columns) if (rec.sensordata[:, c] > 0).any()}
+    row["vulnerable_hits"] = sum(bool(touched & set(bodies)) for bodies in world.robot.vulnerable_parts.values())
+    return row
+
+
+def replay_columns(rec: Recording) -> dict[str, np.ndarray]:
+    """The full qpos every 1/REPLAY_RATE s (NaN between samples): what `fallbench render` replays."""
+    every = max(round(1.0 / (REPLAY_RATE * rec.scenario.physics_dt)), 1)
+    sampled = np.full(rec.qpos.shape, np.nan)
+    sampled[::every] = rec.qpos[::every]
+    return {f"qpos:{i}": sampled[:, i] for i in range(rec.qpos.shape[1])}
 
 
 def compute_metrics(rec: Recording) -> dict[str, object]:
@@ -187,6 +221,7 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["contact_force_peak"] = float(forces["total"].max())
     for group in world.contact_groups:
         row[f"contact_force_peak_{group}"] = float(forces[group].max())
+    row.update(damage_metrics(rec, forces))
     if impact is not None:
         window = (rec.time >= impact) & (rec.time < impact + IMPULSE_WINDOW)
         row["impulse"] = float(forces["total"][window].sum() * dt)
@@ -244,4 +279,5 @@ def timeseries(rec: Recording) -> pd.DataFrame:
         if joint in legs:
             columns[f"K:{joint}"] = rec.kp[:, j]
             columns[f"B:{joint}"] = rec.kd[:, j]
+    columns.update(replay_columns(rec))
     return pd.DataFrame({k: np.asarray(v, dtype=np.float32) for k, v in columns.items()})

@@ -16,12 +16,27 @@ from importlib.metadata import entry_points
 from typing import Any, Iterator
 
 
+def resolved_params(kind: str, name: str, defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
+    """A policy's or strategy's parameters: its defaults overridden by the scenario's (no unknown ones)."""
+    unknown = set(given) - set(defaults)
+    if unknown:
+        raise ValueError(f"{kind} {name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(defaults)) or 'none'}")
+    return {**defaults, **given}
+
+
 class Registry(dict):
     """name -> class: the built-in ones, then the entry points of `group` on first use."""
 
-    def __init__(self, group: str, base: type, builtin: dict[str, Any]) -> None:
+    def __init__(self, group: str, base: type, builtin: dict[str, Any], kind: str) -> None:
         super().__init__(builtin)
-        self.group, self.base, self.loaded = group, base, False
+        self.group, self.base, self.kind, self.loaded = group, base, kind, False
+
+    def create(self, name: str, *args: Any) -> Any:
+        """An instance of the class registered as `name`."""
+        if name not in self:
+            raise ValueError(f"unknown {self.kind} {name!r}; known: {', '.join(self)}")
+        return self[name](*args)
 
     def _load(self) -> None:
         if self.loaded:

@@ -18,6 +18,18 @@ from fallbench.world import World
 UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
 
 
+def body_box_corners(model: mujoco.MjModel, body: int) -> tuple[np.ndarray, np.ndarray]:
+    """A body's collision geoms and the 8 corners of each one's bounding box, (n, 8, 3) in the geom frames."""
+    geoms = np.flatnonzero((model.geom_bodyid == body) & (model.geom_contype > 0))
+    aabb = model.geom_aabb[geoms]  # centre (3) and half extents (3), geom frame
+    return geoms, aabb[:, None, :3] + UNIT_CORNERS[None] * aabb[:, None, 3:]
+
+
+def world_corners(data: mujoco.MjData, geoms: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """(8 n, 3) world positions of geoms' corners from body_box_corners."""
+    return np.concatenate([c @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g] for g, c in zip(geoms, corners)])
+
+
 class FootSupport:
     """Ground-plane corners of the feet in contact, each control step (numpy on MjData only)."""
 
@@ -28,11 +40,9 @@ class FootSupport:
         self.geoms: list[np.ndarray] = []  # per foot column: the body's collision geoms
         self.corners: list[np.ndarray] = []  # per foot column: (n_geoms, 8, 3) corners, geom frame
         for i in self.columns:
-            body = model.body(world.contact_bodies[i]).id
-            geoms = np.flatnonzero((model.geom_bodyid == body) & (model.geom_contype > 0))
-            aabb = model.geom_aabb[geoms]  # centre (3) and half extents (3), geom frame
+            geoms, corners = body_box_corners(model, model.body(world.contact_bodies[i]).id)
             self.geoms.append(geoms)
-            self.corners.append(aabb[:, None, :3] + UNIT_CORNERS[None] * aabb[:, None, 3:])
+            self.corners.append(corners)
 
     def points(self, data: mujoco.MjData, found: np.ndarray) -> np.ndarray:
         """(n, 2) ground-plane points of the feet whose contact sensors are in `found` (a mask
@@ -40,8 +50,4 @@ class FootSupport:
         touching = [k for k, i in enumerate(self.columns) if found[i]]
         if not touching:
             return np.zeros((0, 2))
-        points = []
-        for k in touching:
-            for geom, corners in zip(self.geoms[k], self.corners[k]):
-                points.append(corners @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom])
-        return np.concatenate(points)[:, :2]
+        return np.concatenate([world_corners(data, self.geoms[k], self.corners[k]) for k in touching])[:, :2]

@@ -36,6 +36,7 @@ CONTACT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 LIMIT_SOLREF = (0.005, 1.0)
 ROBOT_COLLISION_BITS = (1, 1)  # contype, conaffinity: robot geoms touch each other and the scene
 FLOOR_NAME = "floor"
+POSTURE_NOISE_STREAM = 1  # random stream of the posture noise, apart from the seed's randomised keys
 
 
 @dataclass(frozen=True)
@@ -317,6 +318,10 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
     for name, value in posture.items():
         joint = model.joint(name)
         data.qpos[model.jnt_qposadr[joint.id]] = value
+    if scenario.initial.joint_noise > 0:  # posture noise, the same for every policy of a seed
+        noise = np.random.default_rng([scenario.seed, POSTURE_NOISE_STREAM]).uniform(-1, 1, len(world.joint_names))
+        noisy = data.qpos[world.qpos_adr] + scenario.initial.joint_noise * noise
+        data.qpos[world.qpos_adr] = np.clip(noisy, world.joint_range[:, 0], world.joint_range[:, 1])
     root_adr = model.jnt_qposadr[model.body_jntadr[world.root_body]]
     data.qpos[root_adr : root_adr + 7] = [0, 0, 0, 1, 0, 0, 0]
     mujoco.mj_kinematics(model, data)
@@ -376,6 +381,9 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
             return f"policy_params.{policy}.{unknown[0]}", f"unknown parameter of {policy!r} (known: {known})"
         for key, value in params.items():
             problem = _parameter_problem(parameters[policy][key], value)
+            allowed = getattr(STRATEGIES.get(policy), "choices", {}).get(key)
+            if not problem and allowed and value not in allowed:
+                problem = f"expected one of {', '.join(allowed)} (got {value!r})"
             if problem:
                 return f"policy_params.{policy}.{key}", problem
     from fallbench.policies.stiff import gain_scale

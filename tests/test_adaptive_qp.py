@@ -1,4 +1,5 @@
-"""The adaptive-gain QP on recorded post-impact states: constraints hold, the selection rule is 002's."""
+"""The adaptive-gain QP on recorded post-impact states: dynamics, contact rows, torque limits and
+bounds hold in the solution; the selection rule is 002's and persists once a chain is in it."""
 
 from __future__ import annotations
 
@@ -6,79 +7,131 @@ import numpy as np
 import pytest
 
 import fallbench.policies.adaptive_qp as adaptive
-from fallbench.control.adaptive_gains_qp import (
-    B_SCALE,
-    K_SCALE,
-    LAMBDA_SCALE,
-    QPConfig,
-    build_problem,
-    model_terms,
-    select_motors,
-)
-from fallbench.dynamics.contacts import cone_matrix, environment_contacts
+from fallbench.control.adaptive_gains_qp import QPConfig, build_problem
+from fallbench.dynamics.contacts import cone_matrix, environment_contacts, normal_matrix
 from fallbench.dynamics.dense_qp import DenseQP
+from fallbench.dynamics.model import select_motors
+from fallbench.dynamics.terms import model_terms
 from fallbench.episode import run_episode
 from fallbench.scenario import Scenario
 
 TOL = 1e-4  # relative to the largest term of each row
+FEET = ("leg_left_6_link", "leg_right_6_link")
 
 
 @pytest.fixture(scope="module")
-def post_impact_states():
-    """(policy, observation, q_ref) at several control steps after a 1 m drop's impact."""
-    states = []
+def post_impact():
+    """Every control step after a 1 m drop's impact: (policy, q_ref, qpos, qvel, q, qd, points,
+    selected motors, held torques, contact bodies)."""
+    steps = []
     original = adaptive.AdaptiveQPPolicy.after_impact
 
     def spy(self, observation, q_ref):
-        if len(states) < 40:
-            states.append((self, observation, q_ref.copy(), observation.qpos.copy(), observation.qvel.copy(),
-                           environment_contacts(self.world.model, observation.data, self.scenario.friction)))
-        return original(self, observation, q_ref)
+        points = environment_contacts(self.world.model, observation.data, self.scenario.friction)
+        e, e_dot = q_ref - observation.q, -observation.qd
+        held = np.clip(self.kp * e + self.kd * e_dot, -self.world.torque_limit, self.world.torque_limit)
+        command = original(self, observation, q_ref)
+        steps.append((self, q_ref.copy(), observation.qpos.copy(), observation.qvel.copy(), observation.q.copy(),
+                      observation.qd.copy(), points, np.flatnonzero(self.selected), held, {p.body for p in points}))
+        return command
 
     adaptive.AdaptiveQPPolicy.after_impact = spy
     try:
-        run_episode(Scenario(name="drop", duration=0.7, initial={"height": 1.0}), "adaptive_qp")
+        run_episode(Scenario(name="drop", duration=0.9, initial={"height": 1.0}), "adaptive_qp")
     finally:
         adaptive.AdaptiveQPPolicy.after_impact = original
-    return states[::8]
+    return steps
 
 
-def test_solution_satisfies_dynamics_torque_limits_and_bounds(post_impact_states) -> None:
-    assert len(post_impact_states) >= 4
-    for policy, observation, q_ref, qpos, qvel, points in post_impact_states:
-        P, world = policy.P, policy.world
-        q, v = P.state(qpos, qvel)
-        e, e_dot = q_ref - observation.q, -observation.qd
-        terms = model_terms(P, q, v, points)
-        problem = build_problem(P, terms, points, q_ref, policy.com_ref, e, e_dot, world.torque_limit,
-                                world.joint_names, policy.scenario.control_dt, QPConfig())
-        status, solved, _, x = DenseQP(QPConfig().eps_abs, QPConfig().max_iter).solve(problem)
-        assert solved, status
-        nv, n_l, s = problem.n_qdd, problem.n_lambda, problem.selected
-        qdd, lam, K, B = x[:nv], x[nv : nv + n_l], x[nv + n_l : nv + n_l + len(s)], x[nv + n_l + len(s) :]
-        # Dynamics (eq. 10), all rows: H qdd + C - J' G lambda = tau, tau = 0 on the base.
-        G = cone_matrix(points)
-        tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ G @ lam
+def _solve(step, config: QPConfig = QPConfig()):
+    policy, q_ref, qpos, qvel, q_meas, qd_meas, points, selected, held, _ = step
+    P, world = policy.P, policy.world
+    q, v = P.state(qpos, qvel)
+    e, e_dot = q_ref - q_meas, -qd_meas
+    terms = model_terms(P, q, v, points, inertia=True)
+    problem = build_problem(P, terms, points, selected, q_ref, policy.com_ref, e, e_dot, held, world.torque_limit,
+                            policy.scenario.control_dt, config)
+    status, solved, _, y = DenseQP(config.eps_abs, config.max_iter, config.max_iter_in).solve(problem)
+    assert solved, status
+    n_l, n_s = problem.n_lambda, len(selected)
+    qdd = problem.acceleration.M @ y + problem.acceleration.m
+    return terms, problem, qdd, y[:n_l], y[n_l : n_l + n_s], y[n_l + n_s :], e, e_dot
+
+
+def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impact) -> None:
+    sample = [s for s in post_impact if s[6]][::10]
+    assert len(sample) >= 4
+    for step in sample:
+        policy, points, s, held = step[0], step[6], step[7], step[8]
+        P, limits = policy.P, policy.world.torque_limit
+        terms, problem, qdd, lam, K, B, e, e_dot = _solve(step)
+        # Dynamics (eq. 10), all rows: H qdd + C - J' G lambda = tau; tau = 0 on the base, K e + B e_dot
+        # on the selected motors (eq. 15), the held PD torque on the others.
+        tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ cone_matrix(points) @ lam
         scale = np.abs(terms.H @ qdd).max() + np.abs(terms.C).max()
         assert np.abs(tau[:6]).max() < TOL * scale
         planned = K * e[s] + B * e_dot[s]
         np.testing.assert_allclose(tau[P.actuated_v[s]], planned, atol=TOL * scale)
-        # Torque limits (eq. 12) on every motor, selected and not.
-        limits = world.torque_limit
-        assert np.all(np.abs(planned) <= limits[s] * (1 + 1e-4) + 1e-6)
         others = np.setdiff1d(np.arange(len(limits)), s)
-        assert np.all(np.abs(tau[P.actuated_v[others]]) <= limits[others] * (1 + 1e-4) + 1e-6)
-        # Bounds (eq. 13), to the solver's tolerance eps_abs in its scaled variables.
-        eps = QPConfig().eps_abs
-        assert lam.min() >= -eps * LAMBDA_SCALE and K.min() >= -eps * K_SCALE and B.min() >= -eps * B_SCALE
-        assert K.max() <= 2000 + eps * K_SCALE and B.max() <= 2000 + eps * B_SCALE
+        np.testing.assert_allclose(tau[P.actuated_v[others]], held[others], atol=TOL * scale)
+        # Contact rows: every contact point's normal acceleration n'(J qdd + J_dot qd) is zero.
+        normal_acc = normal_matrix(points) @ (terms.contacts.jacobian @ qdd + terms.contacts.drift)
+        assert np.abs(normal_acc).max() < 1e-3 * max(1.0, np.abs(qdd).max()), normal_acc
+        # Torque limits (eq. 12) and bounds (eq. 13) to the solver's tolerance in its scaled variables.
+        assert np.all(np.abs(planned) <= limits[s] * (1 + 1e-4) + 1e-3)
+        eps = 10 * QPConfig().eps_abs * problem.scale
+        assert np.all(lam >= -eps[: len(lam)]) and np.all(K >= -eps[len(lam) : len(lam) + len(K)]) and np.all(B >= -eps[-len(B):])
 
 
-def test_selection_rule_picks_the_contact_chains(post_impact_states) -> None:
-    policy = post_impact_states[0][0]
+def test_a_resting_foot_has_zero_normal_acceleration(post_impact) -> None:
+    """A step with both feet flat (four corners each): the solution's contact-point accelerations
+    have no normal component (tangential motion is a cost)."""
+    flat = [s for s in post_impact if len(s[6]) == 8 and s[9] == set(FEET)]
+    assert flat
+    step = flat[len(flat) // 2]
+    terms, problem, qdd, *_ = _solve(step)
+    assert problem.A.shape[0] == 6  # three independent rows per flat foot
+    acc = (terms.contacts.jacobian @ qdd + terms.contacts.drift).reshape(-1, 3)
+    normals = np.array([p.normal for p in step[6]])
+    normal = np.einsum("ij,ij->i", acc, normals)
+    assert np.abs(normal).max() < 1e-3 * max(1.0, np.abs(acc).max())
+
+
+def test_bounds_default_and_options(post_impact) -> None:
+    step = [s for s in post_impact if s[6]][5]
+    _, problem, *_ = _solve(step)
+    n_l, n_s = problem.n_lambda, len(step[7])
+    assert np.all(problem.l_box == 0.0) and np.all(np.isinf(problem.u_box))  # eq. 13: lambda, K, B >= 0, no upper bound
+    capped = QPConfig(k_max=50.0, b_max=5.0, overdamping_ratio=0.1)
+    *_, K, B, e, e_dot = _solve(step, capped)
+    eps = 1e-3
+    assert K.max() <= 50.0 + eps and B.max() <= 5.0 + eps and np.all(B >= 0.1 * K - eps)
+    limits = step[0].world.torque_limit[step[7]]
+    *_, K, B, e, e_dot = _solve(step, QPConfig(damping_bound_speed=1.0))
+    assert np.all(B * np.maximum(np.abs(e_dot[step[7]]), 1.0) <= limits * (1 + 1e-4) + eps)
+    assert n_l > 0 and n_s == 12
+
+
+def test_selection_rule_picks_the_contact_chains(post_impact) -> None:
+    policy = post_impact[0][0]
     names = policy.world.joint_names
-    feet = select_motors(policy.P, {"leg_left_6_link", "leg_right_6_link"}, names)
+    feet = select_motors(policy.P, set(FEET), names)
     assert {names[i] for i in feet} == {f"leg_{side}_{i}_joint" for side in ("left", "right") for i in range(1, 7)}
     hand = select_motors(policy.P, {"gripper_left_base_link"}, names)
     expected = {f"arm_left_{i}_joint" for i in range(1, 8)} | {"torso_1_joint", "torso_2_joint"}
     assert {names[i] for i in hand} == expected
+
+
+def test_a_leg_stays_selected_after_its_foot_loses_contact(post_impact) -> None:
+    policy = post_impact[0][0]
+    names = policy.world.joint_names
+    selected = [set(step[7]) for step in post_impact]
+    assert all(before <= after for before, after in zip(selected, selected[1:]))  # never shrinks
+    tested = 0
+    for foot, side in zip(FEET, ("left", "right")):
+        leg = {names.index(f"leg_{side}_{i}_joint") for i in range(1, 7)}
+        first = next(k for k, step in enumerate(post_impact) if foot in step[9])
+        lifted = [k for k, step in enumerate(post_impact) if k > first and foot not in step[9]]
+        assert all(leg <= selected[k] for k in lifted)
+        tested += len(lifted)
+    assert tested, "no foot left the floor: the test would not test anything"

@@ -34,6 +34,10 @@ CASES = {
     "bad_gain_scale": (GOOD + "sweep:\n  policy_params.stiff.gain_scale: [1, 0]\n", 6, "policy_params.stiff.gain_scale", "must be > 0"),
     "bad_policy_param_value": (GOOD + "policy_params:\n  adaptive_qp:\n    posture_kp: fast\n", 7,
                                "policy_params.adaptive_qp.posture_kp", "expected a finite number (got 'fast')"),
+    "bad_direction_mode": (GOOD + "sweep:\n  policy_params.direction.mode: [auto, jump]\n", 6, "policy_params.direction.mode",
+                           "expected one of auto, no_action, lift_leg, take_step, take_step_pis, whole_body_is (got 'jump')"),
+    "bad_layout_yaw": (GOOD + "sweep:\n  layout_yaw: [0, left]\n", 6, "layout_yaw", "expected degrees (got 'left')"),
+    "unknown_pinned_strategy": (GOOD + "pre_impact: [none, flail]\n", 5, "pre_impact.1", "unknown pre-impact strategy 'flail'"),
     "bad_obstacle_type": (GOOD + "obstacles:\n  - {type: sphere, pos: [2, 0, 0], radius: 1}\n", 6, "obstacles.0", "tag"),
     # numbers: finite and within the documented ranges
     "infinite_force": (GOOD + "push:\n  force: .inf\n", 6, "push.force", "finite number"),

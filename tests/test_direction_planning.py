@@ -120,3 +120,16 @@ def test_pendulum_tips_normal_to_the_edge_and_along_the_radius_at_a_vertex() -> 
     assert rod == pytest.approx(np.full(len(rod), rod[0]), rel=1e-4)  # a rigid rod
     behind = rollout(corner.point[None], np.zeros((1, 2)), np.array([[0.0, 0.0, 0.9]]), np.array([[0.05, 0.05, 0.0]]), 0.0, 0.3)
     assert math.degrees(behind.direction[0]) == pytest.approx(225.0, abs=1e-6)  # too slow to pass over the corner: falls back
+
+
+def test_layout_yaw_turns_the_obstacles_about_the_robot(tmp_path) -> None:
+    from fallbench.scenario import load_scenario_file
+
+    path = tmp_path / "turned.yaml"
+    path.write_text("name: turned\nduration: 1.0\nobstacles:\n  - {type: box, pos: [1.2, 0.0, 0.4], size: [0.4, 0.8, 0.8], yaw: 10}\n"
+                    "  - {type: cylinder, pos: [0.0, -1.0, 0.5], radius: 0.2, height: 1.0}\nsweep:\n  layout_yaw: [0, 90]\n")
+    flat, turned = load_scenario_file(path)
+    assert flat.scenario.obstacles[0].pos == pytest.approx((1.2, 0.0, 0.4))
+    assert turned.scenario.obstacles[0].pos == pytest.approx((0.0, 1.2, 0.4)) and turned.scenario.obstacles[0].yaw == 100
+    assert turned.scenario.obstacles[1].pos == pytest.approx((1.0, 0.0, 0.5))
+    assert turned.swept == {"layout_yaw": 90} and "layout_yaw=90" in turned.label

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.report.claims import claims_table
+from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
 
 SUITE = """name: drop
 duration: 0.8
@@ -69,7 +70,7 @@ def test_claims_verdicts_follow_the_numbers() -> None:
     table = claims_table(rows).set_index("claim (002 Sec. VI)")
     assert table.loc["adaptive_qp stays off the knee stop", "verdict"].iloc[0] == "does not hold"
     assert table.loc["adaptive_qp has a lower IMU acceleration than stiff (landing)", "verdict"].iloc[0] == "does not hold"
-    assert "whole episode stiff 300, oneshot 400, zero 250, adaptive_qp 500" in table.loc["stiff has the highest IMU acceleration (landing)", "numbers"].iloc[0]
+    assert "whole episode stiff 300.0, oneshot 400.0, zero 250.0, adaptive_qp 500.0" in table.loc["stiff has the highest IMU acceleration (landing)", "numbers"].iloc[0]
 
 
 def test_claims_per_baseline_gain_scale() -> None:
@@ -81,8 +82,12 @@ def test_claims_per_baseline_gain_scale() -> None:
         "imu_peak_z_landing": {"stiff": 100.0 * scale, "adaptive_qp": 150.0}[policy], "imu_peak_z": 300.0,
         "knee_limit_margin": 0.3, "torque_demand_ratio_landing": 0.5, "torque_demand_ratio_max": 0.5, "torque_ratio_max": 0.5,
     } for scale, kp in zip(scales, settings) for policy in ("stiff", "adaptive_qp")])
+    other_robot = rows.iloc[:2].assign(robot="g1", scenario="drop", **{"param:policy_params.stiff.gain_scale": float("nan")})
+    rows = pd.concat([rows.assign(robot="talos"), other_robot], ignore_index=True)
+    rows = rows.astype({"policy": "string[pyarrow]", "robot": "string[pyarrow]"})  # as the store reads them
     table = claims_table(rows)
-    lower = table[table["claim (002 Sec. VI)"] == "adaptive_qp has a lower IMU acceleration than stiff (landing)"]
+    lower = table[(table["claim (002 Sec. VI)"] == "adaptive_qp has a lower IMU acceleration than stiff (landing)")
+                  & (table.robot == "talos")]
     assert dict(zip(lower.scope, lower.verdict)) == {
         "sensitivity: gain scale 0.5, adaptive_qp.posture_kp=25": "does not hold",
         "sensitivity: gain scale 0.5, adaptive_qp.posture_kp=100": "does not hold",
@@ -110,3 +115,44 @@ def test_first_impact_table_counts_by_push_direction() -> None:
     assert table.loc[("back", "reshape"), "torso peak median (N)"] == 5
     assert table.loc[("front", "none"), "first on knees (%)"] == 100
     assert [push_label(d) for d in (0, 45, 90, 180, 225, -90)] == ["front", "front diagonal", "side", "back", "back diagonal", "side"]
+
+
+def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
+    """One line per policy and per adaptive_qp setting; other policies' repeats share their line."""
+    rows = pd.DataFrame([{
+        "scenario": "sensitivity", "status": "ok", "pre_impact": "none", "policy": policy,
+        "param:policy_params.stiff.gain_scale": scale, "param:policy_params.adaptive_qp.posture_kp": kp,
+        "imu_peak_z_landing": scale * (10.0 if policy == "stiff" else kp), "imu_peak_z": 1.0, "knee_limit_margin": 0.1,
+        "torque_demand_ratio_landing": 0.5, "qp_failures_landing": 0, "fell": policy == "stiff",
+    } for scale in (1.0, 2.0) for kp in (100, 25) for policy in ("stiff", "adaptive_qp")])
+    swept = sensitivity_runs(rows)
+    assert set(swept.line) == {"stiff", "adaptive_qp, posture_kp=100", "adaptive_qp, posture_kp=25"}
+    table = sensitivity_table(swept).set_index(["gain_scale", "line"])
+    assert table.loc[(2.0, "adaptive_qp, posture_kp=25"), "imu_peak_z_landing"] == 50.0
+    assert table.loc[(2.0, "stiff"), "imu_peak_z_landing"] == 20.0 and table.loc[(2.0, "stiff"), "fell"] == 1.0
+    paths = sensitivity_figure(swept, tmp_path)
+    assert [p.name for p in paths] == ["sensitivity_gain_scale.png", "sensitivity_gain_scale.svg"]
+    assert paths[0].stat().st_size > 10_000
+
+
+def test_prescription_and_detection_tables_on_hand_made_rows() -> None:
+    from fallbench.report.preimpact import detection_table, prescription_table
+
+    nan = float("nan")
+    rows = pd.DataFrame({
+        "scenario": "push_x", "status": "ok", "first_impact_group": ["knees", "knees", "hands", "hands", ""],
+        "pre_impact": ["none", "reshape", "none", "reshape", "none"],
+        "fall_class": ["front", "front", "left", "right", ""],
+        "first_impact_prescribed": [True, False, False, True, False], "knees_simultaneous": [1.0, 0.0, nan, nan, nan],
+        "head_before_hands": [False, True, False, False, False],
+        "contact_force_peak_head": [20000.0, 8000.0, 7000.0, 0.0, 0.0], "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 0.0],
+        "imu_peak_norm": 100.0, "imu_peak_z_5ms": 50.0, "fall_lead_time": [1.2, 1.1, 1.0, 0.9, nan], "fall_reason": "capture_point",
+        "fall_lead_time_capture_point": [1.2, 1.1, 1.0, 0.9, nan], "fall_lead_time_tilt": [0.6, 0.5, nan, 0.4, nan],
+        "fall_lead_time_freefall": nan,
+    })
+    table = prescription_table(rows).set_index(["fall", "pre_impact"])
+    assert table.loc[("front", "none"), "prescribed (%)"] == 100 and table.loc[("front", "reshape"), "knees together"] == "0/1"
+    assert table.loc[("side", "reshape"), "prescribed (%)"] == 100 and table.loc[("side", "none"), "head peak median (N)"] == 7000
+    assert table.loc[("front", "reshape"), "head before hands (%)"] == 100 and len(table) == 4  # the run that did not fall is left out
+    detection = detection_table(rows).set_index("fall")
+    assert detection.loc["front", "capture_point lead median (s)"] == 1.2 and detection.loc["side", "tilt fired (%)"] == 0

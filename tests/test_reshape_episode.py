@@ -9,9 +9,7 @@ from fallbench.episode import Recording, run_episode
 from fallbench.metrics import compute_metrics
 from fallbench.scenario import Push, Scenario
 
-# Tilt detection: with the earlier capture-point trigger this back push lands on the torso first.
-BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1),
-                     detection={"method": ["tilt", "freefall"]})
+BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1))
 
 
 @pytest.fixture(scope="module")
@@ -49,3 +47,5 @@ def test_reshape_metrics(reshaped: Recording) -> None:
     assert 0 < row["landing_error"] < 2.0  # m from the chosen BIP to the wrist's first contact
     assert row["time_to_first_impact"] == pytest.approx(reshaped.impact_events[0].t - reshaped.fall_time)
     assert row["first_impact_group"] == "hands" and row["first_impact_safe"]
+    assert row["first_impact_prescribed"] and not row["head_before_hands"]  # 000 Sec. IV-C: hands before the buttocks
+    assert np.isnan(row["knees_simultaneous"])

@@ -83,3 +83,12 @@ def test_every_robot_has_a_default_posture_and_declared_parts() -> None:
         assert set(robot.trajectory_joints) <= set(robot.timeseries_joints)
         assert set(robot.leg_pitch("right").values()) <= set(robot.timeseries_joints)
         assert robot.vulnerable_bodies and set(robot.vulnerable_bodies) <= set(robot.contact_candidates)
+
+
+def test_point_selector_matches_the_robot(tmp_path: Path) -> None:
+    result = CliRunner().invoke(app, ["scenarios", "export", str(ROOT / "scenarios/drop.yaml"), "--point", "robot=g1",
+                                      "--point", "initial.height=0.5", "--out", str(tmp_path / "scene.xml")])
+    assert result.exit_code == 0, result.output
+    assert "drop[robot=g1,initial.height=0.5]#s0" in result.output and "pelvis" in (tmp_path / "scene.xml").read_text()
+    ambiguous = CliRunner().invoke(app, ["scenarios", "export", str(ROOT / "scenarios/drop.yaml"), "--point", "initial.height=0.5"])
+    assert ambiguous.exit_code == 2 and "selects 2 points" in ambiguous.output

@@ -1,4 +1,5 @@
-"""Task and contact-point Jacobians and drifts against finite differences (Pinocchio model of TALOS)."""
+"""Contact-point Jacobians and drifts against finite differences, friction cones (Pinocchio model of TALOS);
+every task is checked in test_task_jacobians."""
 
 from __future__ import annotations
 
@@ -8,8 +9,6 @@ import pytest
 
 from fallbench.dynamics.contacts import ContactPoint, contact_kinematics, friction_generators
 from fallbench.dynamics.model import PinocchioModel, build_pinocchio
-from fallbench.dynamics.tasks.com import ComTask
-from fallbench.dynamics.tasks.posture import PostureTask
 from fallbench.scenario import Scenario
 from fallbench.world import build_world
 
@@ -62,29 +61,6 @@ def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
     moved = ContactPoint(point.body, P.data.oMf[frame].act(local), point.normal, point.generators)
     fd_drift = (contact_kinematics(P, v, [moved]).velocity - kin.velocity) / EPS
     np.testing.assert_allclose(kin.drift, fd_drift, atol=2e-3 * max(1.0, np.abs(fd_drift).max()))
-
-
-def test_com_jacobian_and_drift(P: PinocchioModel) -> None:
-    q, v = _state(P, 1)
-    com, vcom, drift = ComTask.state(P.model, P.data, q, v)
-    J = ComTask.jacobian(P.model, P.data, q)
-    q_next = pin.integrate(P.model, q, v * EPS)
-    com_next, vcom_next, _ = ComTask.state(P.model, P.data, q_next, v)
-    np.testing.assert_allclose(J @ v, (com_next - com) / EPS, atol=1e-4)
-    np.testing.assert_allclose(vcom, J @ v, atol=1e-9)
-    np.testing.assert_allclose(drift, (vcom_next - vcom) / EPS, atol=1e-3)
-    assert np.allclose(ComTask(com).error(com), 0.0)
-
-
-def test_posture_jacobian_selects_joint_velocities(P: PinocchioModel) -> None:
-    q, v = _state(P, 2)
-    target = np.zeros(len(P.actuated_v))
-    task = PostureTask(target, P.actuated_v, P.model.nv)
-    q_joints = q[7:][P.actuated_v - 6]
-    q_next = pin.integrate(P.model, q, v * EPS)
-    fd = (task.error(q_next[7:][P.actuated_v - 6]) - task.error(q_joints)) / EPS
-    np.testing.assert_allclose(task.jacobian() @ v, fd, atol=1e-6)
-    np.testing.assert_array_equal(task.drift(), 0.0)
 
 
 def test_friction_generators_are_unit_and_inside_the_cone() -> None:

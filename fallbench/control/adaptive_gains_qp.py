@@ -1,39 +1,50 @@
-"""The adaptive-gain QP of 002 Sec. V (eqs. 10-15), solved with ProxSuite.
+"""The adaptive-gain QP of 002 Sec. V (eqs. 10-15), on the shared whole-body layer (`fallbench.dynamics`).
 
-Decision vector X = (q_ddot, lambda, K_S, B_S): joint accelerations (Pinocchio coordinates),
-friction-cone coefficients, and PD stiffness and damping of the selected motors S (those on
-the kinematic chains from the contact bodies to the root, eq. 15). Variables are scaled to
-similar magnitudes (lambda / 100, K / 1000, B / 10) for the solver's conditioning.
+Decision vector y = (lambda, K_S, B_S): friction-cone coefficients of the contact points and PD
+stiffness (Nm/rad) and damping (Nms/rad) of the selected motors S; scaled for the solver
+(lambda / 100 N; K and B so that K e and B e_dot are ~100 Nm per unit). The joint accelerations of X = (q_ddot, lambda, K, B) in 002 are
+eliminated through the dynamics (eq. 10 with eq. 15's selected rows):
+
+    q_ddot = H^-1 (J' G lambda + S_S' (e_S K_S + e_dot_S B_S) + S_NS' tau_NS - C),
+
+which satisfies the floating-base rows (no torque there) exactly, so no dynamics row is left.
+The non-selected motors keep their last gains (ours, see the README): their torque is that PD's,
+tau_NS = clip(K_NS e + B_NS e_dot, -tau_max, tau_max), known at the solve.
 
 Constraints:
-- floating-base rows of the dynamics (eq. 10): H_b qdd + C_b - (J' G)_b lambda = 0;
-- selected motor rows: H_S qdd + C_S - (J' G)_S lambda = e_S K_S + e_dot_S B_S;
-- non-selected motors: -tau_max <= H_NS qdd + C_NS - (J' G)_NS lambda <= tau_max;
+- contact (the authors' `ContactAccConstr`; 002 eq. 11 bounds the contact body's velocity
+  instead): zero normal acceleration of every contact point, as independent rows per body;
 - torque limits of the selected motors (eq. 12): -tau_max <= e K + e_dot B <= tau_max;
-- contact points (eq. 11) along their normal: n' (J qdd + J_dot q_dot) = -n' v / dt
-  (the tangential part is a cost: sliding contacts are released, as 002 Sec. VII does);
-- bounds (eq. 13): lambda >= 0, 0 <= K <= K_max, 0 <= B <= B_max.
-Joint limits are not constraints after impact (002); the posture task keeps joints away.
+- bounds (eq. 13): lambda >= 0, K >= 0, B >= 0.
+Options, off by default: upper bounds K <= k_max, B <= b_max and the over-damping row
+B >= ratio K (the authors' code after the paper); B max(|e_dot|, speed) <= tau_max (ours).
+Joint limits are not constraints after impact (002); the posture task keeps joints toward q_ref.
 
-Cost (eq. 14): posture and CoM set-point tasks (eq. 1), w_lambda |lambda|^2, w_G (|K|^2 + |B|^2).
+Cost (eq. 14): posture and CoM set-point tasks (eq. 1), tangential contact motion (sliding
+released, 002 Sec. VII), w_lambda |lambda|^2, w_gains (|K|^2 + |B|^2); optionally (an
+extension, off by default) the capture point over the centre of the contact points.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
+from fallbench.dynamics.builder import QPBuilder
+from fallbench.dynamics.contacts import ContactPoint, cone_matrix
 from fallbench.dynamics.dense_qp import DenseQP, ScaledQP
-from fallbench.dynamics.contacts import ContactKinematics, ContactPoint, cone_matrix, contact_kinematics, normal_matrix
+from fallbench.dynamics.limits.contact import normal_acceleration_rows, tangential_motion_cost
 from fallbench.dynamics.model import PinocchioModel
-from fallbench.dynamics.tasks.com import ComTask
-from fallbench.dynamics.tasks.posture import PostureTask
+from fallbench.dynamics.objective import AccelerationMap, SetPoint
+from fallbench.dynamics.terms import ModelTerms, model_terms
 
-LAMBDA_SCALE, K_SCALE, B_SCALE = 100.0, 1000.0, 10.0
-QDD_BOUND = 1e4  # rad/s^2 or m/s^2: no real bound, keeps the box finite
+LAMBDA_SCALE = 100.0  # N per solver unit
+TORQUE_UNIT = 100.0  # Nm: K and B are scaled so that one solver unit of K e or B e_dot is about this
+ERROR_FLOOR, RATE_FLOOR = 0.01, 0.1  # rad, rad/s: below these the scales stop growing
+GRAVITY = 9.81  # m/s^2
 
 
 @dataclass(frozen=True)
@@ -49,19 +60,31 @@ class QPConfig:
     posture_kv: float = 20.0  # 1/s
     com_kp: float = 100.0
     com_kv: float = 20.0
-    k_max: float = 2000.0  # Nm/rad (the authors' bound)
-    b_max: float = 2000.0  # Nms/rad
+    # post-paper options from the authors' later code, off by default (None / 0)
+    k_max: float | None = None  # Nm/rad (their code: 2000)
+    b_max: float | None = None  # Nms/rad (their code: 2000)
+    overdamping_ratio: float = 0.0  # B >= ratio K (their code: 0.1)
+    # ours, off by default (0): B max(|e_dot|, speed) <= tau_max, so damping chosen at a near-zero
+    # speed cannot ask many times the limit once the joint moves at `speed` (rad/s) between solves
+    damping_bound_speed: float = 0.0
+    # extension, off by default: capture point over the centre of the contact points
+    w_balance: float = 0.0
+    balance_rate: float = 10.0  # 1/s, capture-point convergence rate
+    ridge: float = 0.1  # numerical regularisation, per solver unit squared (see the README)
     eps_abs: float = 1e-6
-    max_iter: int = 2000
+    # Iteration caps bound the solver's rare very long solves (seen: 62 s uncapped after the fall);
+    # a capped solve counts as a failure and the last gains are kept.
+    max_iter: int = 200
+    max_iter_in: int = 50
 
 
 @dataclass
 class QPProblem(ScaledQP):
-    """The assembled adaptive-gain QP in scaled variables."""
+    """The assembled adaptive-gain QP in scaled variables, and how to read its solution."""
 
-    n_qdd: int
     n_lambda: int
     selected: np.ndarray  # indices (actuator order) of the selected motors
+    acceleration: AccelerationMap  # q_ddot from the physical solution
 
 
 @dataclass
@@ -78,128 +101,95 @@ class QPResult:
     solve_ms: float
 
 
-def select_motors(P: PinocchioModel, bodies: set[str], joint_names: tuple[str, ...]) -> np.ndarray:
-    """Actuators on the chains between the contact bodies and the root (002 eq. 15)."""
-    chain: set[int] = set()
-    for body in bodies:
-        joint = P.model.frames[P.model.getFrameId(body)].parentJoint
-        chain.update(j for j in P.model.supports[joint] if j > 1)
-    names = {P.model.names[j] for j in chain}
-    return np.array([i for i, name in enumerate(joint_names) if name in names], dtype=int)
+def variable_scale(n_lambda: int, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
+    """Physical per solver unit: lambda in LAMBDA_SCALE, K and B so that their torques K e and B e_dot
+    are about TORQUE_UNIT per unit; with fixed scales a gain whose error is near zero is almost free
+    and the solver crawls along it (thousands of iterations)."""
+    return np.concatenate([np.full(n_lambda, LAMBDA_SCALE), TORQUE_UNIT / np.maximum(np.abs(e), ERROR_FLOOR),
+                           TORQUE_UNIT / np.maximum(np.abs(e_dot), RATE_FLOOR)])
 
 
-@dataclass
-class ModelTerms:
-    """Rigid-body terms at one state, Pinocchio coordinates."""
-
-    q: np.ndarray
-    v: np.ndarray
-    H: np.ndarray  # inertia matrix (with rotor armature)
-    C: np.ndarray  # gravity, Coriolis and centrifugal terms
-    contacts: ContactKinematics
-    com: np.ndarray
-    vcom: np.ndarray
-    com_drift: np.ndarray
-    J_com: np.ndarray
+def acceleration_map(P: PinocchioModel, terms: ModelTerms, JtG: np.ndarray, selected: np.ndarray, e: np.ndarray,
+                     e_dot: np.ndarray, held_torque: np.ndarray) -> AccelerationMap:
+    """q_ddot = M (lambda, K_S, B_S) + m from eq. 10 with the non-selected torques known (eq. 15)."""
+    H_inv = terms.H_inv
+    columns = H_inv[:, P.actuated_v[selected]]
+    M = np.hstack([H_inv @ JtG, columns * e[selected], columns * e_dot[selected]])
+    others = np.ones(len(e), dtype=bool)
+    others[selected] = False
+    m = H_inv[:, P.actuated_v[others]] @ held_torque[others] - H_inv @ terms.C
+    return AccelerationMap(M, m)
 
 
-def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint]) -> ModelTerms:
-    model, data = P.model, P.data
-    H = pin.crba(model, data, q)
-    H = np.triu(H) + np.triu(H, 1).T
-    C = pin.nonLinearEffects(model, data, q, v)
-    pin.computeJointJacobians(model, data, q)
-    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
-    pin.updateFramePlacements(model, data)
-    contacts = contact_kinematics(P, v, points)
-    com, vcom, com_drift = ComTask.state(model, data, q, v)
-    return ModelTerms(q, v, H, C, contacts, com, vcom, com_drift, ComTask.jacobian(model, data, q))
-
-
-def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint],
-                  q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray,
-                  torque_limit: np.ndarray, joint_names: tuple[str, ...], dt: float, cfg: QPConfig) -> QPProblem:
-    """Assemble the QP from the model terms; e, e_dot, torque_limit per actuator (MuJoCo order)."""
-    nv = P.model.nv
-    q, v, H_dyn, C_dyn, kin = terms.q, terms.v, terms.H, terms.C, terms.contacts
-    G = cone_matrix(points)
-    JtG = kin.jacobian.T @ G  # (nv, n_lambda)
-
-    selected = select_motors(P, {p.body for p in points}, joint_names)
-    not_selected = np.setdiff1d(np.arange(len(joint_names)), selected)
-    sel_v, ns_v = P.actuated_v[selected], P.actuated_v[not_selected]
-    n_l, n_s = G.shape[1], len(selected)
-    n = nv + n_l + 2 * n_s
-    scale = np.concatenate([np.ones(nv), np.full(n_l, LAMBDA_SCALE), np.full(n_s, K_SCALE), np.full(n_s, B_SCALE)])
-
-    # Equalities, in physical variables first: [H, -J'G, -diag(e), -diag(e_dot)] X = -C.
-    def dynamics_rows(rows: np.ndarray, with_gains: bool) -> np.ndarray:
-        block = np.zeros((len(rows), n))
-        block[:, :nv] = H_dyn[rows]
-        block[:, nv : nv + n_l] = -JtG[rows]
-        if with_gains:
-            block[np.arange(n_s), nv + n_l + np.arange(n_s)] = -e[selected]
-            block[np.arange(n_s), nv + n_l + n_s + np.arange(n_s)] = -e_dot[selected]
-        return block
-
-    base = np.arange(6)
-    normals = normal_matrix(points)
-    contact_rows = np.zeros((len(points), n))
-    contact_rows[:, :nv] = normals @ kin.jacobian
-    A = np.vstack([dynamics_rows(base, False), dynamics_rows(sel_v, True), contact_rows])
-    b = np.concatenate([-C_dyn[base], -C_dyn[sel_v], normals @ (-kin.velocity / dt - kin.drift)])
-
-    # Inequalities: non-selected motor torques, selected motor torques (eq. 12).
-    ns_rows = dynamics_rows(ns_v, False)  # tau - C = H qdd - J'G lambda
-    gain_rows = np.zeros((n_s, n))
-    gain_rows[np.arange(n_s), nv + n_l + np.arange(n_s)] = e[selected]
-    gain_rows[np.arange(n_s), nv + n_l + n_s + np.arange(n_s)] = e_dot[selected]
-    C = np.vstack([ns_rows, gain_rows])
-    limit_ns, limit_s = torque_limit[not_selected], torque_limit[selected]
-    l = np.concatenate([-limit_ns - C_dyn[ns_v], -limit_s])
-    u = np.concatenate([limit_ns - C_dyn[ns_v], limit_s])
-
-    # Cost: sum_k w_k |J_k qdd + J_dot_k v + kp g + kv g_dot|^2 + regularisation.
-    posture = PostureTask(q_ref, P.actuated_v, nv)
-    q_joints = q[7:][P.actuated_v - 6]
-    v_joints = v[P.actuated_v]
-    com_task = ComTask(com_ref)
+def _tasks(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], q_ref: np.ndarray, com_ref: np.ndarray,
+           dt: float, config: QPConfig) -> list[SetPoint]:
+    q_joints = terms.q[7:][P.actuated_v - 6]
     tasks = [
-        (cfg.w_posture, posture.jacobian(), posture.drift() + cfg.posture_kp * posture.error(q_joints) + cfg.posture_kv * v_joints),
-        (cfg.w_com, terms.J_com, terms.com_drift + cfg.com_kp * com_task.error(terms.com) + cfg.com_kv * terms.vcom),
+        SetPoint(config.w_posture, None, q_joints - q_ref, np.zeros(len(q_ref)), config.posture_kp, config.posture_kv,
+                 rows=P.actuated_v),
+        SetPoint(config.w_com, terms.J_com, terms.com - com_ref, terms.com_drift, config.com_kp, config.com_kv),
+        tangential_motion_cost(points, terms.contacts, config.w_tangential, dt),
     ]
-    if points:
-        tangential = kin.jacobian - normals.T @ (normals @ kin.jacobian)
-        tangential_target = kin.drift - normals.T @ (normals @ kin.drift) + (kin.velocity - normals.T @ (normals @ kin.velocity)) / dt
-        tasks.append((cfg.w_tangential, tangential, tangential_target))
-    H = np.zeros((n, n))
-    g = np.zeros(n)
-    for weight, J, offset in tasks:
-        H[:nv, :nv] += weight * J.T @ J
-        g[:nv] += weight * J.T @ offset
-    H[nv : nv + n_l, nv : nv + n_l] += cfg.w_lambda * np.eye(n_l)
-    H[nv + n_l :, nv + n_l :] += cfg.w_gains * np.eye(2 * n_s)
-    H[:nv, :nv] += 1e-9 * np.eye(nv)  # strictly convex
+    if config.w_balance > 0 and points:
+        # capture point xi = c + c_dot / omega driven to the contact centre p at `balance_rate` k:
+        # xi_dot = -k (xi - p) <=> c_ddot = -omega k (c - p) - (omega + k) c_dot, a set point on the CoM
+        omega = math.sqrt(GRAVITY / max(terms.com[2] - min(p.position[2] for p in points), 0.1))
+        centre = np.mean([p.position for p in points], axis=0)
+        k = config.balance_rate
+        tasks.append(SetPoint(config.w_balance, terms.J_com[:2], (terms.com - centre)[:2], terms.com_drift[:2], omega * k, omega + k))
+    return tasks
 
-    l_box = np.concatenate([np.full(nv, -QDD_BOUND), np.zeros(n_l + 2 * n_s)])
-    u_box = np.concatenate([np.full(nv, QDD_BOUND), np.full(n_l, np.inf), np.full(n_s, cfg.k_max), np.full(n_s, cfg.b_max)])
-    # Scale: X = S x, so H -> S H S, g -> S g, A -> A S, C -> C S, box / S.
-    return QPProblem(H=scale[:, None] * H * scale[None, :], g=scale * g, A=A * scale, b=b, C=C * scale, l=l, u=u,
-                     l_box=l_box / scale, u_box=u_box / scale, scale=scale, n_qdd=nv, n_lambda=n_l, selected=selected)
+
+def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], selected: np.ndarray,
+                  q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray, held_torque: np.ndarray,
+                  torque_limit: np.ndarray, dt: float, config: QPConfig) -> QPProblem:
+    """The QP at one state; e, e_dot (rad, rad/s), held_torque (Nm, used for the motors not
+    selected) and torque_limit per actuator (MuJoCo order); dt the control period (s)."""
+    G = cone_matrix(points)
+    JtG = terms.contacts.jacobian.T @ G
+    n_l, n_s = G.shape[1], len(selected)
+    lam, K, B = slice(0, n_l), slice(n_l, n_l + n_s), slice(n_l + n_s, n_l + 2 * n_s)
+    scale = variable_scale(n_l, e[selected], e_dot[selected])
+    acceleration = acceleration_map(P, terms, JtG, selected, e, e_dot, held_torque)
+    qp = QPBuilder(acceleration, scale, terms.v)
+
+    qp.zero_acceleration(*normal_acceleration_rows(points, terms.contacts))
+    e_s, e_dot_s, limit_s = e[selected], e_dot[selected], torque_limit[selected]
+    torque_rows = np.zeros((n_s, len(scale)))
+    diagonal = np.arange(n_s)
+    torque_rows[diagonal, n_l + diagonal], torque_rows[diagonal, n_l + n_s + diagonal] = e_s, e_dot_s
+    qp.within(torque_rows, -limit_s, limit_s)
+    if config.overdamping_ratio > 0:
+        overdamping = np.zeros((n_s, len(scale)))
+        overdamping[:, K], overdamping[:, B] = -config.overdamping_ratio * np.eye(n_s), np.eye(n_s)
+        qp.within(overdamping, np.zeros(n_s), np.full(n_s, np.inf))
+
+    b_upper = np.full(n_s, np.inf if config.b_max is None else config.b_max)
+    if config.damping_bound_speed > 0:
+        b_upper = np.minimum(b_upper, limit_s / np.maximum(np.abs(e_dot_s), config.damping_bound_speed))
+    qp.bound(lam, 0.0, np.inf)
+    qp.bound(K, 0.0, np.inf if config.k_max is None else config.k_max)
+    qp.bound(B, 0.0, b_upper)
+
+    qp.cost(_tasks(P, terms, points, q_ref, com_ref, dt, config))
+    qp.regularise(lam, config.w_lambda)
+    qp.regularise(slice(n_l, n_l + 2 * n_s), config.w_gains)
+    problem = qp.build(config.ridge)
+    return QPProblem(**vars(problem), n_lambda=n_l, selected=selected, acceleration=acceleration)
 
 
 def solve_step(qp: DenseQP, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint],
-               q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray, torque_limit: np.ndarray,
-               joint_names: tuple[str, ...], dt: float, cfg: QPConfig) -> tuple[QPResult, QPProblem]:
+               selected: np.ndarray, q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray,
+               held_torque: np.ndarray, torque_limit: np.ndarray, dt: float, config: QPConfig) -> tuple[QPResult, QPProblem]:
     started = time.perf_counter()
     terms = model_terms(P, q, v, points)
     modelled = time.perf_counter()
-    problem = build_problem(P, terms, points, q_ref, com_ref, e, e_dot, torque_limit, joint_names, dt, cfg)
+    problem = build_problem(P, terms, points, selected, q_ref, com_ref, e, e_dot, held_torque, torque_limit, dt, config)
     built = time.perf_counter()
-    status, solved, iterations, x = qp.solve(problem)
+    status, solved, iterations, y = qp.solve(problem)
     solved_at = time.perf_counter()
-    nv, n_l, n_s = problem.n_qdd, problem.n_lambda, len(problem.selected)
-    result = QPResult(status, solved and bool(np.isfinite(x).all()), iterations, x[:nv], x[nv : nv + n_l],
-                      x[nv + n_l : nv + n_l + n_s], x[nv + n_l + n_s :],
+    n_l, n_s = problem.n_lambda, len(selected)
+    qdd = problem.acceleration.M @ y + problem.acceleration.m
+    result = QPResult(status, solved and bool(np.isfinite(y).all()), iterations, qdd, y[:n_l], y[n_l : n_l + n_s], y[n_l + n_s :],
                       (modelled - started) * 1e3, (built - modelled) * 1e3, (solved_at - built) * 1e3)
     return result, problem

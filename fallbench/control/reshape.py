@@ -16,20 +16,20 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import model_terms
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import DenseQP
 from fallbench.control.fall_direction import FallDirection, fall_class, heading
 from fallbench.control.fall_posture import fall_posture
 from fallbench.control.landing import Candidate, choose, landing_candidates
 from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.objective import SetPoint
 from fallbench.control.reach import reach_polyhedra
-from fallbench.control.reshape_qp import SetPoint, build_reshape_problem
+from fallbench.control.reshape_qp import build_reshape_problem, solve_reshape
 from fallbench.control.surfaces import scene_surfaces
 from fallbench.dynamics.tasks.body_point import BodyPoint
 from fallbench.dynamics.tasks.com import ComTask
@@ -37,11 +37,14 @@ from fallbench.dynamics.tasks.posture import PostureTask
 from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
 from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
 from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
+from fallbench.dynamics.terms import model_terms
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
+from fallbench.support import body_box_corners, world_corners
 from fallbench.world import World
 
 UP = np.array([0.0, 0.0, 1.0])
+PIVOTS = ("contacts", "knees", "knees_and_buttocks")
 
 
 @dataclass(frozen=True)
@@ -52,17 +55,36 @@ class ReshapeConfig:
     w_landing: float = 10.0  # each wrist toward its BIP, along the surface
     w_relative_distance: float = 10.0
     w_posture: float = 1.0
+    w_leg_posture: float = 10.0  # the posture task's rows of the leg joints: a symmetric crouch, both knees together
+    # The torso-orientation and wrist-landing tasks move the torso and arms only: the legs follow
+    # the posture task alone, symmetric, so that both knees land together (000 Sec. IV-B: the two
+    # feet, then the two knees at the same moment; 002 eq. 1's selection matrix S_M).
+    landing_uses_legs: bool = False
     task_kp: float = 40.0  # 1/s^2, every task
     task_kv: float = 12.6  # 1/s, critically damped for task_kp
     knee_bend: float = 1.6  # rad, knee target of the fall posture
+    # Side falls (class at detection left/right): a deeper crouch lowers the hip before it lands.
+    knee_bend_side: float = 2.1  # rad
+    # Front falls: both knees at the same height, with the legs (hips), so that they land together
+    # (000 Sec. IV-B: "the two knees at the same moment ... hip joints are used").
+    w_knees_level: float = 100.0
+    # Back falls: each wrist toward the height of the buttocks' lowest point minus this offset, so
+    # that the hands land before the buttocks (000 Sec. IV-C, eq. 2's P_b offset along the normal).
+    w_hands_below_butt: float = 50.0
+    hands_below_butt: float = 0.2  # m
     w_lambda: float = 1e-6
     w_qdd: float = 1e-4
     w_contact: float = 100.0  # contact points neither sinking in nor lifting off (a cost, not a constraint)
+    pivot: Literal["contacts", "knees", "knees_and_buttocks"] = "contacts"  # the landing search's stick, see _stick
     eps_abs: float = 1e-6
     # Iteration caps bound the solver's rare very long solves (seen: 49 s with ProxSuite's
     # defaults); a capped solve counts as a failure and the references coast for that step.
     max_iter: int = 200
     max_iter_in: int = 100
+
+    def __post_init__(self) -> None:
+        if self.pivot not in PIVOTS:
+            raise ValueError(f"reshape: pivot must be one of {', '.join(PIVOTS)}, not {self.pivot!r}")
 
 
 @dataclass
@@ -84,9 +106,16 @@ class ReshapeController:
         self.surfaces = scene_surfaces(scenario)
         start = {**robot.postures[scenario.initial.posture], **scenario.initial.joints}
         start = {j: start.get(j, 0.0) for j in world.joint_names}
-        target = fall_posture(self.P.model, robot, start, self.cfg.knee_bend)
-        self.posture = PostureTask(np.array([target[j] for j in world.joint_names]), self.P.actuated_v, self.P.model.nv)
+        self.postures = {}  # "side" and "front/back" fall postures
+        for kind, bend in (("front/back", self.cfg.knee_bend), ("side", self.cfg.knee_bend_side)):
+            target = fall_posture(self.P.model, robot, start, bend)
+            self.postures[kind] = PostureTask(np.array([target[j] for j in world.joint_names]), self.P.actuated_v, self.P.model.nv)
         self.wrists = {side: BodyPoint(arm.wrist_frame, np.zeros(3)) for side, arm in robot.arms.items()}
+        self.knees = [BodyPoint(world.model.body(world.model.jnt_bodyid[world.model.joint(j).id]).name, np.zeros(3))
+                      for j in robot.knee_joints]
+        self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
+        leg_joints = [j for root in (leg[0] for leg in robot.legs.values()) for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
+        self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
         self.qp = DenseQP(self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
         self.direction: FallDirection | None = None
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
@@ -102,12 +131,13 @@ class ReshapeController:
         self.q_ref, self.qd_ref = q.copy(), qd.copy()
 
     def _landing_tasks(self, t: float, direction: np.ndarray, facing: str, torso_rotation: np.ndarray,
-                       support: np.ndarray) -> list[SetPoint]:
+                       stick: tuple[np.ndarray, float]) -> list[SetPoint]:
         model, pdata = self.P.model, self.P.data
         lateral = np.cross(UP, direction)
+        support, drop = stick
         pairs, tasks = [], []
         for side, arm in self.world.robot.arms.items():
-            shoulder = pdata.oMi[model.getJointId(arm.shoulder_joint)].translation
+            shoulder = pdata.oMi[model.getJointId(arm.shoulder_joint)].translation - drop * UP
             pivot = support + float((shoulder - support) @ lateral) * lateral
             chosen = choose(landing_candidates(pivot, shoulder, direction, self.surfaces, torso_rotation,
                                                self.reach[f"{side}:{facing}"]))
@@ -116,11 +146,11 @@ class ReshapeController:
             self.landings.append(Landing(t, side, chosen))
             surface = chosen.surface
             error, J, drift = SurfacePositionTask(self.wrists[side], chosen.bip, surface.tangents).compute(model, pdata)
-            tasks.append(SetPoint(self.cfg.w_landing, J, error, drift, self.cfg.task_kp, self.cfg.task_kv))
+            tasks.append(SetPoint(self.cfg.w_landing, self._select(J), error, drift, self.cfg.task_kp, self.cfg.task_kv))
             pairs.append(SurfacePair(self.wrists[side], chosen.bip, surface.normal))
         if len(pairs) == 2:
             error, J, drift = RelativeDistanceTask(*pairs).compute(model, pdata)
-            tasks.append(SetPoint(self.cfg.w_relative_distance, J, error, drift, self.cfg.task_kp, self.cfg.task_kv))
+            tasks.append(SetPoint(self.cfg.w_relative_distance, self._select(J), error, drift, self.cfg.task_kp, self.cfg.task_kv))
         return tasks
 
     def step(self, t: float, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> ServoCommand:
@@ -130,7 +160,7 @@ class ReshapeController:
         world, cfg, model = self.world, self.cfg, self.P.model
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
-        terms = model_terms(self.P, q, v, points)
+        terms = model_terms(self.P, q, v, points, inertia=True)
         torso_rotation = world.robot.torso_frame(self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation)
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
@@ -140,20 +170,70 @@ class ReshapeController:
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)
-        tasks += self._landing_tasks(t, direction, facing, torso_rotation, support)
+        tasks += self._landing_tasks(t, direction, facing, torso_rotation, self._stick(data, support, direction))
+        if facing == "back":
+            tasks += self._hands_below_butt(data)
+        elif len(self.knees) == 2:
+            floor = [SurfacePair(knee, np.zeros(3), UP) for knee in self.knees]
+            error, J, drift = RelativeDistanceTask(*floor).compute(model, self.P.data)
+            tasks.append(SetPoint(cfg.w_knees_level, J, error, drift, cfg.task_kp, cfg.task_kv))
         q_joints = q[7:][self.P.actuated_v - 6]
-        tasks.append(SetPoint(cfg.w_posture, self.posture.jacobian(), self.posture.error(q_joints), self.posture.drift(),
-                              cfg.task_kp, cfg.task_kv))
+        legs = np.isin(self.P.actuated_v, self.leg_v)
+        posture = self.postures["side" if self.classes[0] in ("left", "right") else "front/back"]
+        for rows, weight in ((~legs, cfg.w_posture), (legs, cfg.w_leg_posture)):
+            tasks.append(SetPoint(weight, posture.jacobian()[rows], posture.error(q_joints)[rows],
+                                  posture.drift()[rows], cfg.task_kp, cfg.task_kv))
         problem = build_reshape_problem(self.P, terms, points, tasks, world.torque_limit, world.joint_range,
                                         self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd, cfg.w_contact)
-        status, solved, _, x = self.qp.solve(problem)
-        qdd = x[self.P.actuated_v] if solved and np.isfinite(x).all() else np.zeros(world.model.nu)
+        status, solved, accelerations = solve_reshape(self.qp, problem)
+        qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
         self.q_ref = np.clip(self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2, world.joint_range[:, 0], world.joint_range[:, 1])
         self.qd_ref = self.qd_ref + qdd * dt
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
+
+    def _stick(self, data: mujoco.MjData, support: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, float]:
+        """The stick's ground pivot (002 Sec. IV-B) and the height (m) the robot drops onto it.
+
+        `contacts`: the mean of the contact points, no drop, as in 002. `knees`: the point farthest
+        along the fall direction among that one and the knees: a robot that crouches while it falls
+        forward drops onto its knees and then turns about them, so the stick stands on the knee's
+        ground projection with the knee-to-shoulder length (the shoulders are lowered by the knee's
+        height). `knees_and_buttocks` adds the buttocks' lowest corner, for back falls."""
+        if self.cfg.pivot == "contacts":
+            return support, 0.0
+        candidates = [knee.kinematics(self.P.model, self.P.data)[0] for knee in self.knees]
+        if self.cfg.pivot == "knees_and_buttocks":
+            candidates.append(self._butt_point(data))
+        lead = max(candidates, key=lambda point: float(point @ direction))
+        if float(lead @ direction) <= float(support @ direction):
+            return support, 0.0
+        return np.array([lead[0], lead[1], support[2]]), max(float(lead[2] - support[2]), 0.0)
+
+    def _butt_point(self, data: mujoco.MjData) -> np.ndarray:
+        """Lowest corner (m, world) of the root body's collision geometry (the buttocks)."""
+        corners = world_corners(data, self.butt_geoms, self.butt_corners)
+        return corners[np.argmin(corners[:, 2])]
+
+    def _hands_below_butt(self, data: mujoco.MjData) -> list[SetPoint]:
+        """000 Sec. IV-C: the wrists below the buttocks by `hands_below_butt`, along the vertical."""
+        target = float(self._butt_point(data)[2]) - self.cfg.hands_below_butt
+        tasks = []
+        for wrist in self.wrists.values():
+            position, J, drift = wrist.kinematics(self.P.model, self.P.data)
+            tasks.append(SetPoint(self.cfg.w_hands_below_butt, self._select(J[2:3]), np.array([position[2] - target]),
+                                  drift[2:3], self.cfg.task_kp, self.cfg.task_kv))
+        return tasks
+
+    def _select(self, jacobian: np.ndarray) -> np.ndarray:
+        """A task's Jacobian without the leg columns unless `landing_uses_legs`."""
+        if self.cfg.landing_uses_legs:
+            return jacobian
+        selected = jacobian.copy()
+        selected[:, self.leg_v] = 0.0
+        return selected
 
     def _feet_on_ground(self, data: mujoco.MjData) -> np.ndarray:
         """No contact at all (airborne): the feet's ground projection stands in for the pivot."""

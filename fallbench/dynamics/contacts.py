@@ -77,7 +77,7 @@ def contact_kinematics(P: PinocchioModel, v: np.ndarray, points: list[ContactPoi
     n = len(points)
     jacobian = np.zeros((n, 3, model.nv))
     drift = np.zeros((n, 3))
-    for body in {p.body for p in points}:
+    for body in dict.fromkeys(p.body for p in points):  # first-seen order
         rows = [i for i, p in enumerate(points) if p.body == body]
         origin = data.oMf[model.getFrameId(body)].translation
         offsets = np.array([points[i].position for i in rows]) - origin

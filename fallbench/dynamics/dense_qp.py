@@ -52,27 +52,39 @@ class ScaledQP:
 
 
 class DenseQP:
-    def __init__(self, eps_abs: float, max_iter: int, max_iter_in: int = 1500) -> None:
+    """One ProxSuite solver per problem size (sizes change with the number of contacts), kept for
+    the episode unless its solve fails. With `warm_start` each solve starts from that solver's
+    previous solution (fewer iterations on a sequence of similar problems); otherwise from the
+    equality-constrained guess."""
+
+    def __init__(self, eps_abs: float, max_iter: int, max_iter_in: int = 1500, warm_start: bool = False) -> None:
         self.eps_abs, self.max_iter, self.max_iter_in = eps_abs, max_iter, max_iter_in  # 1500: ProxSuite's default
-        self.solver: proxsuite.proxqp.dense.QP | None = None
-        self.dims: tuple[int, int, int] | None = None
+        self.warm_start = warm_start
+        self.solvers: dict[tuple[int, int, int], proxsuite.proxqp.dense.QP] = {}
+
+    def _new_solver(self, dims: tuple[int, int, int]) -> proxsuite.proxqp.dense.QP:
+        solver = proxsuite.proxqp.dense.QP(*dims, box_constraints=True)
+        solver.settings.eps_abs = self.eps_abs
+        solver.settings.max_iter = self.max_iter
+        solver.settings.max_iter_in = self.max_iter_in
+        guess = proxsuite.proxqp.InitialGuess
+        solver.settings.initial_guess = guess.WARM_START_WITH_PREVIOUS_RESULT if self.warm_start else guess.EQUALITY_CONSTRAINED_INITIAL_GUESS
+        solver.settings.verbose = False
+        return solver
 
     def solve(self, problem: ScaledQP) -> tuple[str, bool, int, np.ndarray]:
         """(status, solved, iterations, x in physical units)."""
         args = (problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u, problem.l_box, problem.u_box)
         dims = (problem.H.shape[0], problem.A.shape[0], problem.C.shape[0])
-        if dims != self.dims or self.solver is None:
-            self.solver = proxsuite.proxqp.dense.QP(*dims, box_constraints=True)
-            self.solver.settings.eps_abs = self.eps_abs
-            self.solver.settings.max_iter = self.max_iter
-            self.solver.settings.max_iter_in = self.max_iter_in
-            self.solver.settings.initial_guess = proxsuite.proxqp.InitialGuess.EQUALITY_CONSTRAINED_INITIAL_GUESS
-            self.solver.settings.verbose = False
-            self.solver.init(*args)
-            self.dims = dims
+        solver = self.solvers.get(dims)
+        if solver is None:
+            solver = self.solvers[dims] = self._new_solver(dims)
+            solver.init(*args)
         else:
-            self.solver.update(*args)
-        self.solver.solve()
-        info = self.solver.results.info
+            solver.update(*args)
+        solver.solve()
+        info = solver.results.info
         status = info.status.name.removeprefix("PROXQP_")
-        return status, status == "SOLVED", int(info.iter), problem.scale * self.solver.results.x
+        if status != "SOLVED":
+            del self.solvers[dims]  # a failed iterate is no start for the next solve
+        return status, status == "SOLVED", int(info.iter), problem.scale * solver.results.x

@@ -71,3 +71,13 @@ def pinocchio_for(world: SimulatedRobot) -> PinocchioModel:
     if id(world) not in _PINOCCHIO:
         _PINOCCHIO[id(world)] = build_pinocchio(world)
     return _PINOCCHIO[id(world)]
+
+
+def select_motors(P: PinocchioModel, bodies: set[str], joint_names: tuple[str, ...]) -> np.ndarray:
+    """Actuators (indices in `joint_names`) on the chains between the given bodies and the root (002 eq. 15)."""
+    chain: set[int] = set()
+    for body in bodies:
+        joint = P.model.frames[P.model.getFrameId(body)].parentJoint
+        chain.update(j for j in P.model.supports[joint] if j > 1)
+    names = {P.model.names[j] for j in chain}
+    return np.array([i for i, name in enumerate(joint_names) if name in names], dtype=int)

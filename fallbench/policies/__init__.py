@@ -17,15 +17,11 @@ POLICIES: dict[str, type[GainPolicy]] = Registry("fallbench.policies", GainPolic
     "oneshot": OneshotPolicy,
     "zero": ZeroPolicy,
     "adaptive_qp": AdaptiveQPPolicy,
-})
+}, "policy")
 
 
 def make_policy(name: str, world: Any, scenario: Any) -> GainPolicy:
-    try:
-        cls = POLICIES[name]
-    except KeyError:
-        raise ValueError(f"unknown policy {name!r}; known: {', '.join(POLICIES)}") from None
-    return cls(world, scenario)
+    return POLICIES.create(name, world, scenario)  # type: ignore[attr-defined]
 
 
 __all__ = ["GainPolicy", "Observation", "POLICIES", "make_policy"]

@@ -2,9 +2,15 @@
 
 Model terms come from Pinocchio at the measured state: joint encoders, and the simulator's true
 base pose and velocity (standing in for a state estimator). Contact points come from the
-simulator's contact list. Motors on the chains from the contact bodies to the root get the QP's
-gains; the other motors keep theirs. When the QP does not return SOLVED, the last solved gains
-are kept (the default gains before the first solve), and the step is counted in `qp_failures`.
+simulator's contact list.
+
+Selection (eq. 15): a chain enters the selection at its body's first contact after impact and
+stays in it, so a foot that loses contact for a few ms keeps its leg's adaptive gains. The motors
+not selected keep their last gains (the default gains toward the impact pose): a position-
+controlled robot can only realise a torque through its gains, so the QP models those motors by
+their PD torque rather than giving them free torques it could not command. When the QP does not
+return SOLVED the last solved gains are kept (the default gains before the first solve), and the
+step is counted in `qp_failures`.
 """
 
 from __future__ import annotations
@@ -15,14 +21,15 @@ from typing import Any
 import numpy as np
 
 from fallbench.control.adaptive_gains_qp import QPConfig, solve_step
-from fallbench.dynamics.dense_qp import DenseQP
 from fallbench.dynamics.contacts import environment_contacts
-from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.dense_qp import DenseQP
+from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.dynamics.tasks.com import ComTask
 from fallbench.policies.base import GainPolicy, Observation
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.world import World
+
 
 class AdaptiveQPPolicy(GainPolicy):
     name = "adaptive_qp"
@@ -31,11 +38,12 @@ class AdaptiveQPPolicy(GainPolicy):
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
-        self.cfg = QPConfig(**self.params)
+        self.config = QPConfig(**self.params)
         self.P = pinocchio_for(world)
-        self.qp = DenseQP(self.cfg.eps_abs, self.cfg.max_iter)
+        self.qp = DenseQP(self.config.eps_abs, self.config.max_iter, self.config.max_iter_in, warm_start=True)
         self.com_ref: np.ndarray | None = None
         self.kp, self.kd = self.default_kp.copy(), self.default_kd.copy()
+        self.selected = np.zeros(len(world.joint_names), dtype=bool)  # grows, never shrinks
         self.records: list[dict[str, float]] = []
         self.failures = 0
 
@@ -44,22 +52,25 @@ class AdaptiveQPPolicy(GainPolicy):
         if self.com_ref is None:
             self.com_ref = ComTask.state(self.P.model, self.P.data, q, v)[0]
         points = environment_contacts(self.world.model, observation.data, self.scenario.friction)
+        self.selected[select_motors(self.P, {p.body for p in points}, self.world.joint_names)] = True
         record: dict[str, float] = {"t": observation.t, "qp_contacts": len(points)}
-        if points:
+        if self.selected.any():
+            selected = np.flatnonzero(self.selected)
             e, e_dot = q_ref - observation.q, -observation.qd
-            result, problem = solve_step(self.qp, self.P, q, v, points, q_ref, self.com_ref, e, e_dot,
-                                         self.world.torque_limit, self.world.joint_names, self.scenario.control_dt, self.cfg)
+            limit = self.world.torque_limit
+            held = np.clip(self.kp * e + self.kd * e_dot, -limit, limit)
+            result, problem = solve_step(self.qp, self.P, q, v, points, selected, q_ref, self.com_ref, e, e_dot, held,
+                                         limit, self.scenario.control_dt, self.config)
             record.update(qp_solved=float(result.solved), qp_iterations=result.iterations, qp_model_ms=result.model_ms,
-                          qp_build_ms=result.build_ms, qp_solve_ms=result.solve_ms, qp_selected=len(problem.selected))
+                          qp_build_ms=result.build_ms, qp_solve_ms=result.solve_ms, qp_selected=len(selected))
             if result.solved:
-                self.kp, self.kd = self.default_kp.copy(), self.default_kd.copy()
-                # clip the solver's tolerance-sized excursions (~1e-3) out of [0, max]
-                self.kp[problem.selected] = np.clip(result.K, 0.0, self.cfg.k_max)
-                self.kd[problem.selected] = np.clip(result.B, 0.0, self.cfg.b_max)
+                # clip the solver's tolerance-sized excursions (~1e-3) below zero
+                self.kp[selected] = np.maximum(result.K, 0.0)
+                self.kd[selected] = np.maximum(result.B, 0.0)
             else:
                 self.failures += 1
         self.records.append(record)
-        return ServoCommand(self.kp, self.kd, q_ref, np.zeros_like(q_ref))
+        return ServoCommand(self.kp.copy(), self.kd.copy(), q_ref, np.zeros_like(q_ref))
 
     def stats(self) -> dict[str, float]:
         solved = [r for r in self.records if "qp_solve_ms" in r]

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
+from fallbench.plugins import resolved_params
 from fallbench.servo import ServoCommand
 
 if TYPE_CHECKING:
@@ -39,16 +40,11 @@ class GainPolicy(ABC):
     defaults: dict[str, Any] = {}
 
     def __init__(self, world: "World", scenario: "Scenario") -> None:
-        params = scenario.policy_params.get(self.name, {})
-        unknown = set(params) - set(self.defaults)
-        if unknown:
-            raise ValueError(f"policy {self.name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
-                             f"known: {', '.join(sorted(self.defaults)) or 'none'}")
+        self.params = resolved_params("policy", self.name, self.defaults, scenario.policy_params.get(self.name, {}))
         self.world = world
         self.scenario = scenario
         self.default_kp = world.default_kp
         self.default_kd = world.default_kd
-        self.params = {**self.defaults, **params}
 
     @abstractmethod
     def after_impact(self, observation: Observation, q_ref: np.ndarray) -> ServoCommand:

@@ -12,15 +12,11 @@ from fallbench.preimpact.none import NoStrategy
 from fallbench.preimpact.reshape import ReshapeStrategy
 
 STRATEGIES: dict[str, type[Strategy]] = Registry("fallbench.strategies", Strategy, {
-    "none": NoStrategy, "reshape": ReshapeStrategy, "direction": DirectionStrategy})
+    "none": NoStrategy, "reshape": ReshapeStrategy, "direction": DirectionStrategy}, "pre-impact strategy")
 
 
 def make_strategy(name: str, world: Any, scenario: Any) -> Strategy:
-    try:
-        cls = STRATEGIES[name]
-    except KeyError:
-        raise ValueError(f"unknown pre-impact strategy {name!r}; known: {', '.join(STRATEGIES)}") from None
-    return cls(world, scenario)
+    return STRATEGIES.create(name, world, scenario)  # type: ignore[attr-defined]
 
 
 __all__ = ["STRATEGIES", "Strategy", "make_strategy"]

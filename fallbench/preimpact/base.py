@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
+from fallbench.plugins import resolved_params
 from fallbench.servo import ServoCommand
 
 if TYPE_CHECKING:
@@ -29,18 +30,14 @@ class Strategy(ABC):
 
     name: str = ""
     defaults: dict[str, Any] = {}  # parameters under `policy_params.<name>`, with their default values
+    choices: dict[str, tuple[str, ...]] = {}  # the allowed values of text parameters, checked when scenarios load
     # True: each motor switches to the gain policy when its own chain touches down (002 Sec. V);
     # False: every motor switches at the first impact.
     per_chain_switching: bool = False
 
     def __init__(self, world: "World", scenario: "Scenario") -> None:
-        params = scenario.policy_params.get(self.name, {})
-        unknown = set(params) - set(self.defaults)
-        if unknown:
-            raise ValueError(f"strategy {self.name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
-                             f"known: {', '.join(sorted(self.defaults)) or 'none'}")
+        self.params = resolved_params("strategy", self.name, self.defaults, scenario.policy_params.get(self.name, {}))
         self.world, self.scenario = world, scenario
-        self.params = {**self.defaults, **params}
 
     @abstractmethod
     def start(self, t: float, data: mujoco.MjData) -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pandas as pd
 
 from fallbench.report.grouping import with_robot
-from fallbench.report.sensitivity import GAIN_SCALE, sensitivity_runs
+from fallbench.report.sensitivity import GAIN_SCALE, sensitivity_runs, value_label
 from fallbench.report.style import ordered
 
 STOP = 0.0  # rad: knee margin at or below this = the knee reached its mechanical stop
@@ -18,7 +18,7 @@ LANDING_COLUMNS = ["imu_peak_z_landing", "torque_demand_ratio_landing"]  # NaN i
 
 
 def _values(series: pd.Series, unit: str = "") -> str:
-    return ", ".join(f"{p} {series[p]:.0f}" for p in ordered(series.index)) + unit
+    return ", ".join(f"{p} {series[p]:.1f}" for p in ordered(series.index)) + unit
 
 
 def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
@@ -70,7 +70,7 @@ def _sensitivity_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
         subsets = group.groupby(settings, dropna=False) if settings else [((), group)]
         for values, subset in subsets:
             values = values if isinstance(values, tuple) else (values,)
-            setting = ", ".join(f"{c.removeprefix('param:policy_params.')}={v:g}" for c, v in zip(settings, values))
+            setting = ", ".join(f"{c.removeprefix('param:policy_params.')}={value_label(v)}" for c, v in zip(settings, values))
             rows += _claims_for(subset, f"{'+'.join(sorted(subset.scenario.unique()))}: gain scale {scale:g}"
                                         + (f", {setting}" if setting else ""))
     return rows

@@ -55,14 +55,14 @@ def _ratio(n: int, m: int) -> str:
 
 
 def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
-    """Per scenario (layout and case): object hits of `none` vs `direction`, strategies chosen,
-    prediction error and planning time."""
+    """Per scenario and layout turn (`layout_yaw`): object hits of `none` vs `direction`, strategies
+    chosen, prediction error and planning time."""
     rows = []
-    for scenario, group in pairs.groupby("scenario"):
+    for (scenario, yaw), group in pairs.groupby(["scenario", "layout_yaw"]):
         hits = group[group.none_hit]
         clear = group[~group.none_hit]
         rows.append({
-            "scenario": scenario, "runs": len(group), "falls detected": int(group.fell.sum()),
+            "scenario": scenario, "layout_yaw (deg)": yaw, "runs": len(group), "falls detected": int(group.fell.sum()),
             "none hits object": _ratio(int(group.none_hit.sum()), len(group)),
             "direction hits object": _ratio(int(group.direction_hit.sum()), len(group)),
             "none hits avoided by direction": _ratio(int((~hits.direction_hit).sum()), len(hits)),
@@ -177,13 +177,16 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
         series = store.load_timeseries(results, rows.loc[name, "run_id"])
         hit = "hit" if rows.loc[name, "obstacle_hit"] else "clear"
         ax.plot(series.com_x, series.com_y, color=colour, lw=2, label=f"CoM, {name} ({hit})")
-    for candidate in json.loads(chosen.direction_candidates or "[]"):
+    candidates = sorted(json.loads(chosen.direction_candidates or "[]"), key=lambda c: c["deg"])
+    level, previous = 0, -math.inf
+    for candidate in candidates:
         angle = math.radians(candidate["deg"])
+        level, previous = (level + 1 if candidate["deg"] - previous < 8.0 else 0), candidate["deg"]  # stagger close rays' labels
         safe = candidate["score"] is not None and candidate["score"] <= 1.0
         ax.plot(*np.c_[origin, origin + 1.0 * np.array([math.cos(angle), math.sin(angle)])], color="#2ca02c" if safe else "#d62728",
                 lw=0.8, alpha=0.7)
         ax.annotate(f"{candidate['name']} {candidate['score'] if candidate['score'] is not None else 'inf'}",
-                    origin + 1.05 * np.array([math.cos(angle), math.sin(angle)]), fontsize=6)
+                    origin + (1.05 + 0.13 * level) * np.array([math.cos(angle), math.sin(angle)]), fontsize=6)
     for value, style, label in ((chosen.predicted_fall_direction_deg, dict(color="black", ls="--"), "predicted (chosen)"),
                                 (chosen.desired_fall_direction_deg, dict(color="red"), "desired theta_d")):
         if np.isfinite(value):

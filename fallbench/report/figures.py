@@ -7,9 +7,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import numpy as np
 import pandas as pd
 
 from fallbench.report.style import colour, ordered
+
+GAINS_ZOOM = 0.25  # s after impact shown in Fig. 5's landing column (002's Fig. 5 spans about this)
+
 
 def _impact_line(ax, impact: float) -> None:
     if pd.notna(impact):
@@ -77,17 +81,29 @@ def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_li
 
 
 def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
-    fig, (ax_k, ax_b) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    """K and B of the leg's pitch joints, and the knee's velocity (from its recorded angle): 002 Fig. 5
+    discusses B against the sign of the knee velocity. Left: the landing (impact - 0.05 s to impact +
+    GAINS_ZOOM s, each panel scaled to it); right: the whole episode after impact."""
+    fig, axes = plt.subplots(3, 2, figsize=(12, 6.5), sharex="col")
     styles = {"hip": "-", "knee": "--", "ankle": ":"}
-    for part, joint in leg.items():
-        ax_k.plot(ts.t, ts[f"K:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
-        ax_b.plot(ts.t, ts[f"B:{joint}"], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
-    for ax in (ax_k, ax_b):
-        _impact_line(ax, impact)
-        ax.grid(alpha=0.3)
-        if pd.notna(impact):
-            ax.set_xlim(max(impact - 0.05, 0), ts.t.max())
-    ax_k.set(ylabel="stiffness K (Nm/rad)", title=f"{title}: adaptive_qp gains, right leg (cf. 002 Fig. 5)")
-    ax_b.set(ylabel="damping B (Nms/rad)", xlabel="time (s)")
-    ax_k.legend(fontsize=8)
+    t = ts.t.to_numpy(dtype=float)
+    start = max(impact - 0.05, 0.0) if pd.notna(impact) else 0.0
+    knee = f"q:{leg['knee']}"
+    for column, end in enumerate((min(start + 0.05 + GAINS_ZOOM, t[-1]), t[-1])):
+        ax_k, ax_b, ax_v = axes[:, column]
+        shown = (t >= start) & (t <= end)
+        for part, joint in leg.items():
+            ax_k.plot(t[shown], ts[f"K:{joint}"][shown], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
+            ax_b.plot(t[shown], ts[f"B:{joint}"][shown], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
+        if knee in ts:
+            ax_v.plot(t[shown], np.gradient(ts[knee].to_numpy(dtype=float), t)[shown], color="black", linestyle="--", linewidth=1.0)
+            ax_v.axhline(0.0, color="grey", linewidth=0.6)
+        for ax in (ax_k, ax_b, ax_v):
+            _impact_line(ax, impact)
+            ax.grid(alpha=0.3)
+        ax_k.set(ylabel="stiffness K (Nm/rad)", title="landing" if column == 0 else "whole episode")
+        ax_b.set(ylabel="damping B (Nms/rad)")
+        ax_v.set(ylabel="knee velocity (rad/s)", xlabel="time (s)")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{title}: adaptive_qp gains, right leg (cf. 002 Fig. 5)")
     return _save(fig, out, stem)

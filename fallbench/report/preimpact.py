@@ -50,6 +50,58 @@ def first_impact_table(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+SIDE_CLASSES = {"front": "front", "back": "back", "left": "side", "right": "side"}
+
+
+def _fallen_pushes(runs: pd.DataFrame) -> pd.DataFrame:
+    """Push runs that landed, with `fall` = front/back/side from the waist's lean at the first impact."""
+    if "first_impact_prescribed" not in runs:
+        return pd.DataFrame()
+    pushes = runs[(runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")
+                  & runs.fall_class.isin(list(SIDE_CLASSES))]
+    return pushes.assign(fall=pushes.fall_class.map(SIDE_CLASSES))
+
+
+def prescription_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per fall class (at impact) and strategy: how often 000's landing order holds, knees landing
+    together, head before hands, and the head, torso and IMU peaks (medians)."""
+    pushes = _fallen_pushes(runs)
+    if pushes.empty:
+        return pd.DataFrame()
+    rows = []
+    for (fall, strategy), group in pushes.groupby(["fall", "pre_impact"]):
+        knees = group.knees_simultaneous.dropna()
+        rows.append({
+            "fall": fall, "pre_impact": strategy, "falls": len(group),
+            "prescribed (%)": round(100 * group.first_impact_prescribed.mean()),
+            "knees together": f"{int(knees.sum())}/{len(knees)}",
+            "head before hands (%)": round(100 * group.head_before_hands.mean()),
+            "head peak median (N)": round(group.contact_force_peak_head.median()),
+            "torso peak median (N)": round(group.contact_force_peak_torso.median()),
+            "IMU peak median (m/s^2)": round(group.imu_peak_norm.median()),
+            "IMU z 5 ms peak median (m/s^2)": round(group.imu_peak_z_5ms.median()),
+            "detection to impact median (s)": round(group.fall_lead_time.median(), 3),
+        })
+    return pd.DataFrame(rows)
+
+
+def detection_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per fall class, without reshaping: when each fall detector fired, as lead time to the first
+    impact (median, s) and share of the falls it fired in before the impact."""
+    pushes = _fallen_pushes(runs)
+    if pushes.empty or "fall_lead_time_capture_point" not in pushes:
+        return pd.DataFrame()
+    rows = []
+    for fall, group in pushes[pushes.pre_impact == "none"].groupby("fall"):
+        row: dict[str, object] = {"fall": fall, "falls": len(group), "declared by": ", ".join(sorted(group.fall_reason.unique()))}
+        for method in ("capture_point", "tilt", "freefall"):
+            lead = group[f"fall_lead_time_{method}"]
+            row[f"{method} fired (%)"] = round(100 * lead.notna().mean())
+            row[f"{method} lead median (s)"] = round(lead.median(), 3)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
 def clutter_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per robot, obstacle scenario and strategy: landing error, obstacle contacts, head and torso peaks."""
     runs = with_robot(runs)
@@ -131,5 +183,7 @@ def preimpact_report(runs: pd.DataFrame, results: Path, out: Path) -> tuple[list
         for point in sorted(front_back.loc[front_back[DIRECTION].isin([0, 180]), "point"].unique()):
             paths += reshaped_fall_figure(runs, results, out, point, "stiff")
     tables = {"First impact and head/torso peak forces of pushes, per push direction": first_impact_table(runs),
+              "000's landing order per fall class (at impact), pushes": prescription_table(runs),
+              "Fall detectors' lead time to the first impact, pushes without reshaping": detection_table(runs),
               "Landing among obstacles": clutter_table(runs)}
     return paths, tables

@@ -11,6 +11,7 @@ import pandas as pd
 
 from fallbench.metrics import LANDING_WINDOW
 from fallbench.report.figures import _save
+from fallbench.report.grouping import with_robot
 from fallbench.report.style import colour, ordered
 
 GAIN_SCALE = "param:policy_params.stiff.gain_scale"
@@ -23,17 +24,24 @@ TABLE_METRICS = ("imu_peak_z_landing", "imu_peak_z", "knee_limit_margin", "torqu
                  "qp_failures_landing", "fell")
 
 
+def value_label(value: object) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
 def sensitivity_runs(runs: pd.DataFrame) -> pd.DataFrame:
     """Successful gain-policy-only runs with a swept baseline gain scale, labelled per line: the policy,
     plus the values of its own swept parameters (e.g. adaptive_qp's posture_kp)."""
     if GAIN_SCALE not in runs:
         return pd.DataFrame()
-    swept = runs[(runs.status == "ok") & runs[GAIN_SCALE].notna() & (runs.pre_impact == "none")].copy()
-    labels = swept.policy.astype(str)
-    for column in sorted(c for c in swept.columns if c.startswith("param:policy_params.") and c != GAIN_SCALE):
-        policy, key = column.removeprefix("param:policy_params.").split(".", 1)
-        own = (swept.policy == policy) & swept[column].notna()
-        labels = labels.where(~own, labels + f", {key}=" + swept[column].map(lambda v: f"{v:g}"))
+    swept = with_robot(runs[(runs.status == "ok") & runs[GAIN_SCALE].notna() & (runs.pre_impact == "none")])
+    own = [(c, *c.removeprefix("param:policy_params.").split(".", 1)) for c in sorted(swept.columns)
+           if c.startswith("param:policy_params.") and c != GAIN_SCALE]  # (column, policy, key)
+    several_robots = swept.robot.nunique() > 1
+    labels = []
+    for _, run in swept.iterrows():
+        label = ", ".join([str(run.policy)] + [f"{key}={value_label(run[column])}" for column, policy, key in own
+                                                if policy == run.policy and pd.notna(run[column])])
+        labels.append(label + (f" ({run.robot})" if several_robots else ""))
     return swept.assign(line=labels, gain_scale=swept[GAIN_SCALE].astype(float))
 
 
@@ -45,14 +53,16 @@ def sensitivity_table(swept: pd.DataFrame) -> pd.DataFrame:
 def sensitivity_figure(swept: pd.DataFrame, out: Path) -> list[Path]:
     if swept.empty or swept.gain_scale.nunique() < 2:
         return []
-    lines = sorted(swept.line.unique(), key=lambda label: (ordered(swept.policy.unique()).index(label.split(",")[0]), label))
+    policy_of = dict(zip(swept.line, swept.policy))
+    order = ordered(swept.policy.unique())
+    lines = sorted(policy_of, key=lambda line: (order.index(policy_of[line]), line))
     fig, axes = plt.subplots(1, len(PANELS), figsize=(5 * len(PANELS) + 2.5, 4.2))
     for ax, (metric, label) in zip(axes, PANELS.items()):
         for i, line in enumerate(lines):
             group = swept[swept.line == line]
             medians = group.groupby("gain_scale")[metric].median()
-            policy = group.policy.iloc[0]
-            style = "-" if "," not in line else ["--", ":", "-."][i % 3]
+            policy = policy_of[line]
+            style = "-" if "," not in line else ["--", ":", "-."][i % 3]  # adaptive_qp settings: one style each
             ax.plot(medians.index, medians.to_numpy(), marker="o", color=colour(policy), linestyle=style, label=line)
             fell = group[group.fell.astype(bool)].groupby("gain_scale")[metric].median()
             ax.scatter(fell.index, fell.to_numpy(), s=90, facecolors="none", edgecolors="black", linewidths=0.8, zorder=3)

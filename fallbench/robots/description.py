@@ -59,7 +59,8 @@ class RobotDescription:
     leg_pitch_joints: dict[str, tuple[str, str]]  # "hip"/"knee"/"ankle" -> (left, right) pitch joints
     timeseries_joints: tuple[str, ...]  # joints whose angle and torque every run stores
     trajectory_joints: dict[str, str]  # joint -> label, drawn in the reshaped-fall figure
-    vulnerable_bodies: tuple[str, ...]  # parts a contact damages (sensors, hands): head, grippers
+    vulnerable_parts: dict[str, tuple[str, ...]]  # part a hit on counts as damage (SafeFall's vulnerable parts) -> its bodies
+    torque_chains: dict[str, str]  # chain name -> regex of its joints, for per-chain torque peaks
     srdf_path: Path | None = None
     armature: dict[str, float] = field(default_factory=dict)  # joint -> kg m^2 reflected rotor inertia
     postures: dict[str, dict[str, float]] = field(default_factory=dict)  # must hold `default`
@@ -68,6 +69,11 @@ class RobotDescription:
     # Columns: the robot's forward, left and up directions in the torso body's frame.
     torso_axes: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     feet: dict[str, str] = field(default_factory=dict)  # "left"/"right" -> the foot body that carries the sole
+
+    @property
+    def vulnerable_bodies(self) -> tuple[str, ...]:
+        """Every body of every vulnerable part."""
+        return tuple(body for bodies in self.vulnerable_parts.values() for body in bodies)
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine."""

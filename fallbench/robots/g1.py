@@ -63,6 +63,12 @@ G1_BODY_GROUPS: dict[str, tuple[str, ...]] = {
     "head": ("head_link",),
 }
 
+# Parts a hit on damages (SafeFall's "vulnerable parts"): the head (cameras, lidar) and the hands.
+G1_VULNERABLE_PARTS = {"head": G1_BODY_GROUPS["head"]} | {
+    f"hand_{side}": (f"{side}_wrist_yaw_link", f"{side}_rubber_hand") for side in SIDES}
+G1_TORQUE_CHAINS = {"legs": r"(left|right)_(hip|knee|ankle)_.*", "arms": r"(left|right)_(shoulder|elbow|wrist)_.*",
+                    "torso": r"waist_.*"}
+
 G1_DEFAULT = {
     **{f"{side}_{joint}_joint": value for side in SIDES for joint, value in (
         ("hip_pitch", -0.312), ("knee", 0.669), ("ankle_pitch", -0.363), ("elbow", 0.6), ("shoulder_pitch", 0.2))},
@@ -106,7 +112,8 @@ def g1() -> RobotDescription:
                           for part, suffix in (("hip", "_pitch"), ("knee", ""), ("ankle", "_pitch"))},
         timeseries_joints=G1_TIMESERIES_JOINTS,
         trajectory_joints=G1_TRAJECTORY_JOINTS,
-        vulnerable_bodies=("head_link",) + tuple(f"{side}_{part}" for side in SIDES for part in ("wrist_yaw_link", "rubber_hand")),
+        vulnerable_parts=G1_VULNERABLE_PARTS,
+        torque_chains=G1_TORQUE_CHAINS,
         armature=G1_ARMATURE,
         postures={DEFAULT_POSTURE: G1_DEFAULT},
         posture_base_height={DEFAULT_POSTURE: G1_STANDING_HEIGHT},

@@ -56,9 +56,10 @@ TALOS_TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_
 TALOS_TRAJECTORY_JOINTS = {"torso_1_joint": "torso yaw", "arm_left_1_joint": "left shoulder pitch",
                            "arm_left_4_joint": "left elbow", "arm_left_6_joint": "left wrist pitch",
                            "leg_right_4_joint": "right knee"}
-# Parts a contact damages: the head (cameras) and the grippers.
-TALOS_VULNERABLE = ("head_1_link", "head_2_link", "rgbd_link") + tuple(
-    body for body in TALOS_BODY_GROUPS["hands"] if body.startswith("gripper_"))
+# Parts a hit on damages (SafeFall's "vulnerable parts"): the head with its camera, and the grippers.
+TALOS_VULNERABLE_PARTS = {"head": TALOS_BODY_GROUPS["head"]} | {
+    f"gripper_{side}": tuple(b for b in TALOS_BODY_GROUPS["hands"] if b.startswith(f"gripper_{side}_")) for side in ("left", "right")}
+TALOS_TORQUE_CHAINS = {"legs": r"leg_.*", "arms": r"arm_.*", "torso": r"torso_.*", "head": r"head_.*"}
 
 
 def data_root() -> Path:
@@ -96,5 +97,6 @@ def talos() -> RobotDescription:
         feet={side: f"leg_{side}_6_link" for side in ("left", "right")},
         timeseries_joints=TALOS_TIMESERIES_JOINTS,
         trajectory_joints=TALOS_TRAJECTORY_JOINTS,
-        vulnerable_bodies=TALOS_VULNERABLE,
+        vulnerable_parts=TALOS_VULNERABLE_PARTS,
+        torque_chains=TALOS_TORQUE_CHAINS,
     )

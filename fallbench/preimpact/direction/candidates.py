@@ -3,7 +3,7 @@
 No Action keeps the support polygon; Lift a Leg leaves the stance foot's sole; Take a Step moves
 one foot, over a grid of targets, and the support becomes the hull of both soles. The robot tips
 about the polygon's boundary point nearest the capture point (pendulum.py). A step changes the
-support only when it lands: its prediction follows No Action's pendulum until then, and a target
+support only when it lands: its prediction follows Lift a Leg's pendulum until then, and a target
 is kept only if the foot gets there in half No Action's fall time and lands clear of the objects.
 """
 
@@ -25,7 +25,7 @@ class StepGrid:
     radii: np.ndarray  # m, step lengths from the swing foot's current centre
     headings: np.ndarray  # rad, world
     foot_speed: float  # m/s, mean swing-foot speed
-    min_separation: float  # m between the two feet's centres after the step
+    min_separation: float  # m from the stance foot's centre to the target, across (toward the swing foot's side)
     max_separation: float  # m, the maximum leg spread
 
 
@@ -53,7 +53,7 @@ class FallState:
     touchdown_height: float  # m above the floor
 
 
-def _predict(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, state: FallState) -> tuple[Rollout, np.ndarray]:
+def predict(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, state: FallState) -> tuple[Rollout, np.ndarray]:
     """Pendulum rollouts about each polygon's pivot; and whether the capture point is inside it."""
     pivots, edges, inside = [], [], []
     for polygon, com, velocity in zip(polygons, coms, velocities):
@@ -71,53 +71,66 @@ def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:
 
 
 def step_targets(soles: dict[str, np.ndarray], swing: str, grid: StepGrid, objects: list[Circle]) -> list[np.ndarray]:
-    """Grid targets for the swing foot's centre within the leg spread and clear of the objects."""
+    """Grid targets for the swing foot's centre within the leg spread, on the swing foot's own side
+    of the stance foot (no crossing of the legs) and clear of the objects."""
     stance = next(s for s in soles if s != swing)
     centre, other = soles[swing].mean(axis=0), soles[stance].mean(axis=0)
-    reach = float(np.linalg.norm(soles[swing][0] - centre))
+    side = (centre - other) / float(np.linalg.norm(centre - other))  # from the stance foot toward the swing foot
+    reach = float(np.max(np.linalg.norm(soles[swing] - centre, axis=1)))
     targets = []
     for r in grid.radii:
         for heading in grid.headings:
             target = centre + r * np.array([math.cos(heading), math.sin(heading)])
-            separation = float(np.linalg.norm(target - other))
-            if grid.min_separation <= separation <= grid.max_separation and clear_of(target, reach, objects):
+            offset = target - other
+            if (float(offset @ side) >= grid.min_separation and float(np.linalg.norm(offset)) <= grid.max_separation
+                    and clear_of(target, reach, objects)):
                 targets.append(target)
     return targets
 
 
+def landed_states(lifted: Rollout, index: int, travel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CoM states (m, m/s; (n, 3) each) after `travel` s (n,) of a fall on the stance foot alone
+    (rollout `index` of `lifted`): where a step's support changes."""
+    at = np.minimum(np.round(travel / lifted.dt).astype(int), int(lifted.touchdown_step[index]))
+    return lifted.com[index, at], lifted.velocity[index, at]
+
+
+def step_directions(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, origin: np.ndarray,
+                    state: FallState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(directions rad from `origin`, fall times s after landing, capture point inside) of falls that
+    continue on each step's new polygon from its landing state."""
+    roll, inside = predict(polygons, coms, velocities, state)
+    end = roll.end[:, :2] - origin[:2]
+    return np.arctan2(end[:, 1], end[:, 0]) % (2 * math.pi), roll.time, inside
+
+
 def evaluate(soles: dict[str, np.ndarray], state: FallState, grid: StepGrid, objects: list[Circle]) -> tuple[list[Candidate], Rollout]:
     """Every candidate with its predicted direction and fall time (scores are set by the caller),
-    and No Action's rollout (for plots)."""
+    and the rollouts of No Action and Lift a Leg (a step falls like Lift a Leg until it lands)."""
     both = support_polygon(np.vstack(list(soles.values())))
     fixed = [Candidate("no_action", None, None, both)]
     fixed += [Candidate("lift_leg", side, None, soles[other]) for side, other in (("left", "right"), ("right", "left"))]
     start = np.repeat(state.com[None], len(fixed), axis=0)
     start_v = np.repeat(state.velocity[None], len(fixed), axis=0)
-    fixed_roll, fixed_inside = _predict([c.polygon for c in fixed], start, start_v, state)
+    fixed_roll, fixed_inside = predict([c.polygon for c in fixed], start, start_v, state)
     for k, candidate in enumerate(fixed):
         candidate.direction, candidate.fall_time = float(fixed_roll.direction[k]), float(fixed_roll.time[k])
         candidate.capturing = bool(fixed_inside[k])
-    no_action = fixed_roll
     steps: list[Candidate] = []
-    coms, vels = [], []
     deadline = 0.5 * fixed[0].fall_time
-    for swing in soles:
+    for k, lifted in enumerate(fixed[1:], start=1):
+        swing = lifted.swing
+        assert swing is not None
         stance = next(s for s in soles if s != swing)
-        for target in step_targets(soles, swing, grid, objects):
-            travel = float(np.linalg.norm(target - soles[swing].mean(axis=0))) / grid.foot_speed
-            if travel > deadline:
-                continue
-            moved = soles[swing] + (target - soles[swing].mean(axis=0))
-            steps.append(Candidate("take_step", swing, target, support_polygon(np.vstack([soles[stance], moved]))))
-            at = min(int(round(travel / no_action.dt)), int(no_action.touchdown_step[0]))
-            coms.append(no_action.com[0, at])
-            vels.append(no_action.velocity[0, at])
-            steps[-1].fall_time = travel  # completed below: time on No Action's pendulum until landing
-    if steps:
-        roll, inside = _predict([c.polygon for c in steps], np.array(coms), np.array(vels), state)
-        for k, candidate in enumerate(steps):
-            end = roll.end[k, :2] - state.com[:2]
-            candidate.direction = math.atan2(end[1], end[0]) % (2 * math.pi)
-            candidate.fall_time += float(roll.time[k])
-            candidate.capturing = bool(inside[k])
-    return fixed + steps, no_action
+        centre = soles[swing].mean(axis=0)
+        targets = [t for t in step_targets(soles, swing, grid, objects) if np.linalg.norm(t - centre) / grid.foot_speed <= deadline]
+        if not targets:
+            continue
+        travel = np.array([float(np.linalg.norm(t - centre)) / grid.foot_speed for t in targets])
+        side = [Candidate("take_step", swing, t, support_polygon(np.vstack([soles[stance], soles[swing] + (t - centre)]))) for t in targets]
+        coms, vels = landed_states(fixed_roll, k, travel)
+        directions, times, inside = step_directions([c.polygon for c in side], coms, vels, state.com, state)
+        for j, candidate in enumerate(side):
+            candidate.direction, candidate.fall_time, candidate.capturing = float(directions[j]), travel[j] + float(times[j]), bool(inside[j])
+        steps += side
+    return fixed + steps, fixed_roll

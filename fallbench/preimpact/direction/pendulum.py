@@ -49,7 +49,7 @@ def _acceleration(p: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def rollout(pivots: np.ndarray, edges: np.ndarray, com: np.ndarray, velocity: np.ndarray, floor_z: float,
-            touchdown_height: float, dt: float = 0.005, max_time: float = 2.0) -> Rollout:
+            touchdown_height: float, dt: float = 0.01, max_time: float = 2.0) -> Rollout:
     """n pendulum falls. pivots (n, 2) m; edges (n, 2) unit edge directions, zero rows for a vertex;
     com, velocity (n, 3) start states (m, m/s); touchdown when the CoM is `touchdown_height` (m)
     above the floor at `floor_z`."""

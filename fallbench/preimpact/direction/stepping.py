@@ -16,7 +16,7 @@ LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 def foot_to_foot_jacobian(model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray) -> np.ndarray:
     """(6, len(columns)): relative twist of the swing foot frame with respect to the stance foot
-    frame per joint velocity. Needs computeJointJacobians and updateFramePlacements."""
+    frame per joint velocity; `columns` are Pinocchio velocity indices (the base's are 0-5). Needs computeJointJacobians and updateFramePlacements."""
     relative = pin.getFrameJacobian(model, data, swing, LWA) - pin.getFrameJacobian(model, data, stance, LWA)
     return relative[:, columns]
 
@@ -24,15 +24,13 @@ def foot_to_foot_jacobian(model: pin.Model, data: pin.Data, swing: int, stance: 
 def swing_velocity(model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray, target: np.ndarray,
                    target_rotation: np.ndarray, gain: float, max_speed: float, damping: float) -> np.ndarray:
     """Joint velocities (rad/s, over `columns`) moving the swing foot frame toward `target` (m, world)
-    and `target_rotation`, at `gain` (1/s) and at most `max_speed` (m/s)."""
+    and `target_rotation`, at `gain` (1/s) and at most `max_speed` (m/s), relative to the stance foot."""
     placement = data.oMf[swing]
     linear = gain * (target - placement.translation)
     speed = float(np.linalg.norm(linear))
     if speed > max_speed:
         linear *= max_speed / speed
     angular = gain * pin.log3(target_rotation @ placement.rotation.T)
-    # What the swing foot would do with the joints locked: move rigidly with the (tipping) stance foot.
-    stance_twist = pin.getFrameVelocity(model, data, stance, LWA)
-    carried = stance_twist.linear + np.cross(stance_twist.angular, placement.translation - data.oMf[stance].translation)
-    desired = np.concatenate([linear - carried, angular - stance_twist.angular])
-    return damped_solve(foot_to_foot_jacobian(model, data, swing, stance, columns), desired, damping)
+    # P_dot_L = 0: the stance foot is meant to stay where it is. Feeding back its measured velocity
+    # instead would close a loop through our own command (a pushing swing leg lifts the stance foot).
+    return damped_solve(foot_to_foot_jacobian(model, data, swing, stance, columns), np.concatenate([linear, angular]), damping)

@@ -21,10 +21,11 @@ import pinocchio as pin
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.events import capture_point, support_polygon
 from fallbench.preimpact.base import Strategy
-from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate
+from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, landed_states, predict, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
 from fallbench.preimpact.direction.inertia import damped_solve, desired_inertia, inertia_about, inertia_jacobian, to_vector
+from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
 from fallbench.preimpact.direction.stepping import swing_velocity
 from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
@@ -36,7 +37,7 @@ from fallbench.world import World
 if TYPE_CHECKING:
     from fallbench.episode import Recording
 
-LANDED = 0.005  # m: a sole frame this close to its standing height is on the ground
+LANDED = 0.015  # m: a foot frame this close to its standing height has landed (the ground tilts under a falling robot)
 
 
 def _yaw_only(rotation: np.ndarray) -> np.ndarray:
@@ -47,12 +48,11 @@ def _yaw_only(rotation: np.ndarray) -> np.ndarray:
 class DirectionStrategy(Strategy):
     name = "direction"
     defaults = DIRECTION_PARAMS
+    choices = {"mode": MODES, "selection": SELECTIONS}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
         self.config = config = DirectionConfig(**self.params)
-        if config.mode not in MODES or config.selection not in SELECTIONS:
-            raise ValueError(f"direction: mode must be one of {', '.join(MODES)} and selection one of {', '.join(SELECTIONS)}")
         self.P = pinocchio_for(world)
         model = self.P.model
         self.feet = world.robot.feet
@@ -76,6 +76,9 @@ class DirectionStrategy(Strategy):
         self.standing: dict[str, pin.SE3] = {}  # foot frames at the fall trigger, soles flat
         self.sole_centres: dict[str, np.ndarray] = {}  # m, (2,) at the control trigger
         self.step_done: float | None = None
+        self.lifted = False  # the swing foot has left the ground
+        self.tracked: float | None = None  # s, last tracking prediction
+        self.tracking_switch = math.nan  # s, when tracking started whole-body inertia shaping
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
         self.step_ms: list[float] = []
 
@@ -104,6 +107,7 @@ class DirectionStrategy(Strategy):
             if not self.trigger.update(t, xi):
                 return None
             self._plan(data, com, com_velocity)
+        self._track(t, data, com, com_velocity)
         command = self._control(t, data, q, v, xi)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return command
@@ -142,25 +146,66 @@ class DirectionStrategy(Strategy):
         position = pdata.oMf[frame].translation
         if chosen.kind == "lift_leg":
             target = home.translation + np.array([0.0, 0.0, config.lift_height])
+            self.lifted = self.lifted or position[2] >= home.translation[2] + 0.5 * config.lift_height
         else:
             assert chosen.target is not None
             # the sole centre moves to the target: the frame moves by the same horizontal offset
             target_xy = home.translation[:2] + chosen.target - self.sole_centres[swing]
+            # lift straight up first (a loaded foot pushed sideways would move the body instead), then
+            # over to the target at the lift height, then down onto it
+            self.lifted = self.lifted or position[2] >= home.translation[2] + 0.5 * config.lift_height
             far = float(np.linalg.norm(target_xy - position[:2])) > 0.5 * config.step_tolerance
+            if not self.lifted:
+                target_xy = position[:2]
             target = np.array([*target_xy, home.translation[2] + (config.lift_height if far else 0.0)])
             if not far and position[2] <= home.translation[2] + LANDED:
                 self.step_done = t
                 return
         columns = self.leg_columns[swing]
-        qdot[columns] = swing_velocity(model, pdata, frame, self.frames[stance], columns, target, _yaw_only(home.rotation),
+        qdot[columns] = swing_velocity(model, pdata, frame, self.frames[stance], columns + 6, target, _yaw_only(home.rotation),
                                        config.step_gain, config.foot_speed, config.damping)
+
+    def _supporting(self) -> list[str]:
+        """The feet on the ground as planned: both, or the stance foot while the other is lifted or
+        on its way (a landed step supports again)."""
+        assert self.plan is not None
+        swing = self.plan.chosen.swing
+        return [side for side in self.feet if side != swing or (self.plan.chosen.kind == "take_step" and self.step_done is not None)]
+
+    def _track(self, t: float, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
+        """004 Secs. IV, VI: the strategy runs "in an interactive manner": every `tracking_period` s
+        the fall is predicted again from the present state, about the planned support (the present
+        one once a step has landed), and whole-body inertia shaping starts when it has become unsafe.
+        Forced modes (ablations) run as chosen."""
+        plan, config = self.plan, self.config
+        assert plan is not None
+        if not config.tracking or config.mode != "auto" or plan.chosen.kind == "no_action" or plan.inertia_shaping == "wbis":
+            return
+        if self.tracked is not None and t - self.tracked < config.tracking_period - 1e-9:
+            return
+        self.tracked = t
+        state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
+        polygon, coms, velocities = plan.chosen.polygon, com[None], com_velocity[None]
+        soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
+        if plan.chosen.kind == "take_step" and self.step_done is None:  # in flight: on the stance foot until it lands
+            assert plan.chosen.swing is not None and plan.chosen.target is not None
+            stance = next(soles[side] for side in soles if side != plan.chosen.swing)
+            remaining = float(np.linalg.norm(plan.chosen.target - soles[plan.chosen.swing].mean(axis=0))) / config.foot_speed
+            on_stance, _ = predict([stance], coms, velocities, state)
+            coms, velocities = landed_states(on_stance, 0, np.array([remaining]))
+        elif plan.chosen.kind == "take_step":
+            polygon = support_polygon(np.vstack(list(soles.values())))
+        directions, _, _ = step_directions([polygon], coms, velocities, self.origin, state)
+        if score(float(directions[0]), self.regions, config.w1, config.w2) > 1.0:
+            plan.inertia_shaping, self.tracking_switch = "wbis", t
 
     def _shape(self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray) -> None:
         """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP."""
         assert self.plan is not None and self.plan.desired is not None
         model, pdata, plan = self.P.model, self.P.data, self.plan
-        swing = plan.chosen.swing
-        soles = [sole_corners(self.world.model, data, body) for side, body in self.feet.items() if side != swing]
+        supporting = self._supporting()
+        swing = next((side for side in self.feet if side not in supporting), None)
+        soles = [sole_corners(self.world.model, data, self.feet[side]) for side in supporting]
         pivot = nearest_pivot(support_polygon(np.vstack(soles)), xi)
         point = np.array([*pivot.point, 0.0])
         stance = next((s for s in self.frames if s != swing), "left") if swing else min(
@@ -171,7 +216,7 @@ class DirectionStrategy(Strategy):
         if plan.inertia_shaping == "wbis":
             columns, placement = np.arange(model.nv - 6), np.array([], dtype=int)
         else:
-            placement = self.leg_columns[swing]
+            placement = self.leg_columns[plan.chosen.swing]
             columns = self.upper_columns if plan.chosen.kind == "take_step" else np.setdiff1d(np.arange(model.nv - 6), placement)
         rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
         qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
@@ -211,6 +256,7 @@ class DirectionStrategy(Strategy):
             "control_trigger_time": self.trigger.time if self.trigger.time is not None else math.nan,
             "control_trigger_reason": self.trigger.reason,
             "direction_plan_ms": self.plan_ms,
+            "direction_tracking_switch_time": self.tracking_switch,
             "predicted_fall_direction_deg": math.degrees(plan.chosen.direction) if plan else math.nan,
             "predicted_score": plan.chosen.score if plan else math.nan,
             "desired_fall_direction_deg": math.degrees(plan.desired) if plan and plan.desired is not None else math.nan,

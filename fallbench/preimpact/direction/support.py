@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from fallbench.events import signed_distance, support_polygon
+from fallbench.events import support_polygon
 
 UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
 
@@ -29,7 +29,9 @@ def sole_corners(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.nd
 
 def contains(polygon: np.ndarray, point: np.ndarray) -> bool:
     """Whether a point lies inside a counter-clockwise convex polygon (boundary included)."""
-    return signed_distance(point, polygon) <= 0.0
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    rel = point[:2] - polygon
+    return bool(np.all(edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0] >= -1e-12))
 
 
 @dataclass(frozen=True)
@@ -42,15 +44,11 @@ class Pivot:
 
 def nearest_pivot(polygon: np.ndarray, point: np.ndarray, vertex_tolerance: float = 1e-3) -> Pivot:
     """The boundary point nearest `point`; at a vertex when it is within `vertex_tolerance` (m) of one."""
-    best: tuple[float, np.ndarray, np.ndarray | None] | None = None
-    for a, b in zip(polygon, np.roll(polygon, -1, axis=0)):
-        edge = b - a
-        length = float(np.linalg.norm(edge))
-        s = float(np.clip((point[:2] - a) @ edge / length**2, 0.0, 1.0)) if length > 0 else 0.0
-        foot = a + s * edge
-        distance = float(np.linalg.norm(point[:2] - foot))
-        at_vertex = min(s * length, (1 - s) * length) <= vertex_tolerance
-        if best is None or distance < best[0] - 1e-12:
-            best = (distance, foot, None if at_vertex else edge / length)
-    assert best is not None
-    return Pivot(best[1], best[2])
+    starts = polygon
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    lengths = np.linalg.norm(edges, axis=1)
+    s = np.clip(np.einsum("ij,ij->i", point[:2] - starts, edges) / np.maximum(lengths, 1e-12) ** 2, 0.0, 1.0)
+    feet = starts + s[:, None] * edges
+    k = int(np.argmin(np.linalg.norm(point[:2] - feet, axis=1)))
+    at_vertex = min(s[k], 1.0 - s[k]) * lengths[k] <= vertex_tolerance
+    return Pivot(feet[k], None if at_vertex else edges[k] / lengths[k])

@@ -1,0 +1,63 @@
+"""The one builder of both QPs: variables y, joint accelerations q_ddot = M y + m, set-point costs,
+regularisations, equality and inequality rows (on y or on q_ddot), bounds on y; then scaled for
+the solver (physical y = scale * x)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fallbench.dynamics.dense_qp import ScaledQP
+from fallbench.dynamics.objective import AccelerationMap, SetPoint, add_set_points
+
+
+class QPBuilder:
+    def __init__(self, acceleration: AccelerationMap, scale: np.ndarray, v: np.ndarray) -> None:
+        n = len(scale)
+        self.acceleration, self.scale, self.v = acceleration, scale, v
+        self.H, self.g = np.zeros((n, n)), np.zeros(n)
+        self.equalities: list[tuple[np.ndarray, np.ndarray]] = []
+        self.inequalities: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.lower, self.upper = np.full(n, -np.inf), np.full(n, np.inf)
+
+    def cost(self, tasks: list[SetPoint]) -> None:
+        add_set_points(self.H, self.g, tasks, self.acceleration, self.v)
+
+    def regularise(self, variables: slice, weight: float) -> None:
+        """weight |y[variables]|^2."""
+        index = np.arange(len(self.scale))[variables]
+        self.H[index, index] += weight
+
+    def equal(self, A: np.ndarray, b: np.ndarray) -> None:
+        """A y = b."""
+        self.equalities.append((A, b))
+
+    def within(self, C: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        """lower <= C y <= upper."""
+        self.inequalities.append((C, lower, upper))
+
+    def zero_acceleration(self, R: np.ndarray, r: np.ndarray) -> None:
+        """R q_ddot + r = 0."""
+        self.equal(R @ self.acceleration.M, -(r + R @ self.acceleration.m))
+
+    def acceleration_within(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        """lower <= q_ddot[rows] <= upper."""
+        m = self.acceleration.m[rows]
+        self.within(self.acceleration.M[rows], lower - m, upper - m)
+
+    def bound(self, variables: slice, lower: float | np.ndarray, upper: float | np.ndarray) -> None:
+        self.lower[variables], self.upper[variables] = lower, upper
+
+    def build(self, ridge: float = 0.0) -> ScaledQP:
+        """The scaled problem; `ridge` adds ridge |x|^2 in solver units (a numerical regularisation
+        that keeps nearly free directions, e.g. redundant friction-cone coefficients, from slowing
+        the solver down)."""
+        n, scale = len(self.scale), self.scale
+        A = np.vstack([a for a, _ in self.equalities]) if self.equalities else np.zeros((0, n))
+        b = np.concatenate([b for _, b in self.equalities]) if self.equalities else np.zeros(0)
+        C = np.vstack([c for c, _, _ in self.inequalities]) if self.inequalities else np.zeros((0, n))
+        l = np.concatenate([lo for _, lo, _ in self.inequalities]) if self.inequalities else np.zeros(0)
+        u = np.concatenate([up for _, _, up in self.inequalities]) if self.inequalities else np.zeros(0)
+        H = scale[:, None] * self.H * scale[None, :]
+        H[np.diag_indices(n)] += ridge
+        return ScaledQP(H=H, g=scale * self.g, A=A * scale, b=b, C=C * scale,
+                        l=l, u=u, l_box=self.lower / scale, u_box=self.upper / scale, scale=scale)

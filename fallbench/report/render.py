@@ -1,0 +1,245 @@
+"""Falls rendered with MuJoCo's own renderer, offscreen: filmstrips of a run's key moments and
+videos of one run or two side by side, replayed from the qpos the time series keeps at 100 Hz.
+
+Rendering needs an OpenGL context: on Linux fallbench asks MuJoCo for EGL (headless) unless
+MUJOCO_GL says otherwise. Without one, `RenderUnavailable` carries a one-line reason.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from ruamel.yaml import YAML
+
+from fallbench import store
+from fallbench.scenario import Scenario
+
+FRAME_SIZE = (480, 400)  # px, width x height of one filmstrip frame
+VIDEO_SIZE = (640, 480)  # px per run in a video
+CAMERA_ELEVATION = -12.0  # deg, slightly from above so the floor and the obstacles show
+MERGE_WINDOW = 0.02  # s: key moments closer than this share a frame
+
+
+class RenderUnavailable(RuntimeError):
+    """No OpenGL context for offscreen rendering."""
+
+
+class ReplayMissing(ValueError):
+    """The run is not in the store or has no replay columns."""
+
+
+@dataclass
+class Replay:
+    run_id: str
+    scenario: Scenario
+    label: str  # pre-impact strategy + policy, point
+    time: np.ndarray  # s, (samples,)
+    qpos: np.ndarray  # (samples, nq)
+    row: pd.Series  # the run's metric row
+
+
+def find_run(results: Path, run_id: str) -> str:
+    """A run id, or a prefix of exactly one stored run id."""
+    runs = store.RUNS
+    folder = results / runs
+    if (folder / run_id).is_dir():
+        return run_id
+    matches = sorted(p.name for p in folder.glob(f"{run_id}*") if p.is_dir() and not p.name.startswith(".")) if folder.is_dir() else []
+    if len(matches) != 1:
+        found = "no stored run" if not matches else f"{len(matches)} stored runs"
+        raise ReplayMissing(f"{results}: {found} with id {run_id!r} (see `fallbench results --columns run_id,point,policy,pre_impact`)")
+    return matches[0]
+
+
+def load_replay(results: Path, run_id: str) -> Replay:
+    run_id = find_run(results, run_id)
+    folder = store.run_dir(results, run_id)
+    spec = YAML(typ="safe", pure=True).load((folder / "spec.yaml").read_text())
+    series = store.load_timeseries(results, run_id)
+    columns = sorted((c for c in series.columns if c.startswith("qpos:")), key=lambda c: int(c.split(":")[1]))
+    if not columns:
+        raise ReplayMissing(f"run {run_id} has no qpos in its time series (stored by an older fallbench): run it again to render it")
+    sampled = series[["t", *columns]].dropna()
+    row = pd.read_parquet(folder / store.METRICS).iloc[0]
+    label = f"{row.pre_impact} + {row.policy}, {row.point}"
+    return Replay(run_id, Scenario.model_validate(spec["scenario"]), label, sampled.t.to_numpy(float),
+                  sampled[columns].to_numpy(float), row)
+
+
+def _scene_model(scenario: Scenario):
+    """The run's scene with a chequered floor, a sky and a larger offscreen buffer (visual only:
+    the same bodies and qpos as the simulated model)."""
+    import mujoco
+
+    from fallbench.world import FLOOR_NAME, build_spec
+
+    spec = build_spec(scenario)
+    spec.compiler.discardvisual = False  # it would drop the textures below (the URDF's visual meshes are gone already)
+    sky = spec.add_texture()
+    sky.name, sky.type, sky.builtin = "sky", mujoco.mjtTexture.mjTEXTURE_SKYBOX, mujoco.mjtBuiltin.mjBUILTIN_GRADIENT
+    sky.rgb1, sky.rgb2, sky.width, sky.height = [0.75, 0.85, 0.95], [1.0, 1.0, 1.0], 256, 1536
+    grid = spec.add_texture()
+    grid.name, grid.type, grid.builtin = "grid", mujoco.mjtTexture.mjTEXTURE_2D, mujoco.mjtBuiltin.mjBUILTIN_CHECKER
+    grid.rgb1, grid.rgb2, grid.width, grid.height = [0.85, 0.85, 0.85], [0.7, 0.7, 0.72], 512, 512
+    material = spec.add_material()
+    material.name, material.texrepeat, material.texuniform = "grid", [2.0, 2.0], True
+    material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+    for geom in spec.geoms:
+        if geom.name == FLOOR_NAME:
+            geom.material = "grid"
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = 2 * VIDEO_SIZE[0], 2 * VIDEO_SIZE[1]
+    spec.visual.headlight.ambient, spec.visual.headlight.diffuse = [0.35] * 3, [0.55] * 3
+    return spec.compile()
+
+
+@dataclass(frozen=True)
+class Framing:
+    """A fixed camera for a whole replay: looking across the fall, at the middle of its path."""
+
+    lookat: tuple[float, float, float]
+    distance: float
+    azimuth: float
+
+
+def framing(replays: list[Replay]) -> Framing:
+    """Side view of the base's path (start to end), far enough to hold the robot standing and lying."""
+    paths = np.concatenate([r.qpos[:, :3] for r in replays])
+    start, end = replays[0].qpos[0, :2], replays[0].qpos[-1, :2]
+    travel = end - start
+    # Across the fall direction; a drop (almost no travel) is seen from the robot's front-left.
+    azimuth = math.degrees(math.atan2(travel[1], travel[0])) + 90 if np.linalg.norm(travel) > 0.25 else 210.0
+    low, high = paths.min(axis=0), paths.max(axis=0)
+    centre = (low + high) / 2
+    extent = float(max(high[0] - low[0], high[1] - low[1]))
+    return Framing((float(centre[0]), float(centre[1]), 0.5), 2.4 + 1.1 * extent, azimuth)
+
+
+class Camera:
+    """An offscreen MuJoCo renderer for one scene."""
+
+    def __init__(self, scenario: Scenario, view: Framing, size: tuple[int, int]) -> None:
+        try:
+            import mujoco  # MuJoCo loads the MUJOCO_GL backend on import; a missing library fails here
+        except Exception as exc:
+            raise RenderUnavailable(_gl_reason(exc)) from None
+
+        self.mujoco = mujoco
+        self.model = _scene_model(scenario)
+        self.data = mujoco.MjData(self.model)
+        try:
+            with warnings.catch_warnings():  # GLFW warns before it fails; the reason is enough
+                warnings.simplefilter("ignore")
+                self.renderer = mujoco.Renderer(self.model, size[1], size[0])
+        except Exception as exc:  # each GL backend fails its own way (ImportError, FatalError, AttributeError)
+            raise RenderUnavailable(_gl_reason(exc)) from None
+        self.camera = mujoco.MjvCamera()
+        self.camera.lookat[:] = view.lookat
+        self.camera.distance, self.camera.azimuth, self.camera.elevation = view.distance, view.azimuth, CAMERA_ELEVATION
+
+    def frame(self, qpos: np.ndarray) -> np.ndarray:
+        self.data.qpos[:] = qpos
+        self.mujoco.mj_forward(self.model, self.data)
+        self.renderer.update_scene(self.data, self.camera)
+        return self.renderer.render().copy()
+
+    def close(self) -> None:
+        self.renderer.close()
+
+
+def _gl_reason(exc: Exception) -> str:
+    import os
+
+    backend = os.environ.get("MUJOCO_GL", "")
+    first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return (f"no OpenGL context for offscreen rendering (MUJOCO_GL={backend or 'unset'}: {first}); "
+            "on a headless Linux machine use MUJOCO_GL=egl with Mesa's EGL installed")
+
+
+def _at(replay: Replay, t: float) -> np.ndarray:
+    """The last replay sample at or before t."""
+    return replay.qpos[max(int(np.searchsorted(replay.time, t + 1e-9)) - 1, 0)]
+
+
+def key_moments(row: pd.Series, end: float) -> list[tuple[float, str]]:
+    """(time, caption) of the frames of a filmstrip: fall detection, first impact, each body
+    group's first contact, and the end; moments within MERGE_WINDOW share one frame."""
+    moments: list[tuple[float, str]] = []
+    if pd.notna(row.get("fall_time")):
+        moments.append((float(row.fall_time), "fall detected"))
+    if pd.notna(row.get("impact_time")):
+        moments.append((float(row.impact_time), "first impact"))
+    for event in json.loads(row.get("impact_events") or "[]"):
+        moments.append((float(event["t"]), f"{event['group']} touch"))
+    moments.append((end, "end"))
+    merged: list[tuple[float, str]] = []
+    for t, caption in sorted(moments, key=lambda m: m[0]):
+        if merged and t - merged[-1][0] < MERGE_WINDOW:
+            merged[-1] = (merged[-1][0], f"{merged[-1][1]}, {caption}")
+        else:
+            merged.append((t, caption))
+    return merged
+
+
+def filmstrip(results: Path, run_id: str, out: Path) -> Path:
+    """`filmstrip_<run>.png`: the run at its key moments, one fixed camera, captions with times."""
+    import matplotlib.pyplot as plt
+
+    replay = load_replay(results, run_id)
+    moments = key_moments(replay.row, float(replay.time[-1]))
+    camera = Camera(replay.scenario, framing([replay]), FRAME_SIZE)
+    try:
+        frames = [camera.frame(_at(replay, t)) for t, _ in moments]
+    finally:
+        camera.close()
+    fig, axes = plt.subplots(1, len(frames), figsize=(2.6 * len(frames), 2.6 * FRAME_SIZE[1] / FRAME_SIZE[0] + 0.6), squeeze=False)
+    for ax, image, (t, caption) in zip(axes[0], frames, moments):
+        ax.imshow(image)
+        ax.set_title(f"{t:.2f} s\n{caption}", fontsize=7)
+        ax.axis("off")
+    fig.suptitle(f"{replay.label} ({replay.run_id})", fontsize=9)
+    fig.tight_layout()
+    path = out / f"filmstrip_{replay.run_id}.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _caption(image: np.ndarray, text: str) -> np.ndarray:
+    from PIL import Image, ImageDraw
+
+    picture = Image.fromarray(image)
+    ImageDraw.Draw(picture).text((8, 6), text, fill=(0, 0, 0))
+    return np.asarray(picture)
+
+
+def video(results: Path, run_ids: list[str], out: Path, fps: int = 30, speed: float = 1.0) -> Path:
+    """An MP4 or GIF of one run, or of two side by side on the same clock and camera (e.g. `none`
+    vs `reshape`); `speed` < 1 is slow motion. MP4 through imageio's ffmpeg, GIF through Pillow."""
+    import imageio.v2 as imageio
+
+    replays = [load_replay(results, r) for r in run_ids]
+    view = framing(replays)
+    cameras = [Camera(r.scenario, view, VIDEO_SIZE) for r in replays]
+    end = max(float(r.time[-1]) for r in replays)
+    times = np.arange(0.0, end + 1e-9, speed / fps)
+    frames = []
+    try:
+        for t in times:
+            views = [_caption(c.frame(_at(r, t)), f"{r.row.pre_impact} + {r.row.policy}   t = {t:.2f} s")
+                     for c, r in zip(cameras, replays)]
+            frames.append(np.concatenate(views, axis=1))
+    finally:
+        for camera in cameras:
+            camera.close()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix.lower() == ".gif":
+        imageio.mimwrite(out, frames, duration=1000 / fps, loop=0)
+    else:
+        imageio.mimwrite(out, frames, fps=fps, macro_block_size=8)
+    return out

@@ -1,0 +1,53 @@
+"""The direction strategy in an episode: control trigger after the fall trigger, a forced step that
+lands is a planned contact (not an impact), and the obstacle metrics of every run."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from fallbench.episode import Recording, run_episode
+from fallbench.metrics import compute_metrics
+from fallbench.scenario import Scenario
+
+RING4 = [
+    {"type": "box", "pos": [1.25, 0.0, 0.375], "size": [0.6, 0.6, 0.75]},
+    {"type": "cylinder", "pos": [-0.113, 1.295, 0.85], "radius": 0.25, "height": 1.7},
+    {"type": "box", "pos": [-0.479, -1.316, 0.9], "size": [0.4, 1.0, 1.8], "yaw": 70},
+    {"type": "cylinder", "pos": [0.849, -0.849, 0.75], "radius": 0.15, "height": 1.5},
+]
+FORWARD = Scenario(name="dir_forward", duration=1.1, push={"force": 384, "duration": 0.1, "start": 0.1, "direction": 0},
+                   obstacles=RING4, policy_params={"direction": {"mode": "take_step"}})
+
+
+@pytest.fixture(scope="module")
+def stepped() -> Recording:
+    return run_episode(FORWARD, "stiff", "direction")
+
+
+def test_a_planned_step_lands_without_counting_as_an_impact(stepped: Recording) -> None:
+    strategy = stepped.strategy
+    assert stepped.status == "ok" and strategy is not None and strategy.plan is not None
+    assert strategy.plan.chosen.kind == "take_step" and strategy.plan.inertia_shaping == ""
+    assert stepped.fall_time < strategy.trigger.time <= stepped.fall_time + strategy.config.trigger_timeout + 1e-9
+    assert strategy.step_done is not None and strategy.step_done > strategy.trigger.time  # the foot landed
+    swing_foot = stepped.world.robot.feet[strategy.plan.chosen.swing]
+    assert all(swing_foot not in event.bodies for event in stepped.impact_events)
+
+
+def test_direction_metrics(stepped: Recording) -> None:
+    row = compute_metrics(stepped)
+    assert row["direction_strategy"].startswith("take_step_")
+    assert row["control_trigger_reason"] in ("steady", "timeout")
+    assert row["n_safe_regions"] == 2 and isinstance(row["obstacle_hit"], bool)
+    assert row["fall_direction_error_deg"] == pytest.approx(
+        min(abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"]),
+            360 - abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"])))
+    assert row["direction_plan_ms"] > 0 and math.isfinite(row["obstacle_clearance_at_impact"])
+
+
+def test_none_gets_the_obstacle_metrics_too() -> None:
+    row = compute_metrics(run_episode(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
+    assert "direction_strategy" not in row and row["n_safe_regions"] == 2
+    assert 0.0 <= row["actual_fall_direction_deg"] < 360.0

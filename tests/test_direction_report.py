@@ -1,0 +1,41 @@
+"""The direction report's tables on hand-made rows: pairs of none/direction runs, hit counts and
+the claims' N/M."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from fallbench.report.direction import claims, hit_table, paired
+
+
+def _runs() -> pd.DataFrame:
+    rows = []
+    # (point, none hits, direction hits, direction strategy)
+    for point, none_hit, direction_hit, strategy in [("a", True, False, "take_step_left+pis"), ("b", True, True, "lift_leg_right+pis"),
+                                                      ("c", False, False, "no_action"), ("d", True, False, "take_step_right+wbis")]:
+        common = {"point": point, "policy": "stiff", "scenario": "dir_x", "status": "ok", "fall_time": 0.2,
+                  "param:layout_yaw": 90.0}
+        rows.append(common | {"pre_impact": "none", "obstacle_hit": none_hit, "actual_in_safe_region": not none_hit})
+        rows.append(common | {"pre_impact": "direction", "obstacle_hit": direction_hit, "actual_in_safe_region": not direction_hit,
+                              "direction_strategy": strategy, "fall_direction_error_deg": 10.0 if point != "b" else 40.0,
+                              "direction_plan_ms": 50.0, "direction_step_ms_median": 2.0, "predicted_score": 0.5,
+                              "step_completed": (point == "a") if strategy.startswith("take_step") else None})
+    return pd.DataFrame(rows)
+
+
+def test_hit_table_counts_avoided_and_kept_falls() -> None:
+    table = hit_table(paired(_runs())).iloc[0]
+    assert table["layout_yaw (deg)"] == 90.0 and table["runs"] == 4
+    assert table["none hits object"] == "3/4 (75 %)" and table["direction hits object"] == "1/4 (25 %)"
+    assert table["none hits avoided by direction"] == "2/3 (67 %)" and table["none clear kept clear"] == "1/1 (100 %)"
+    assert table["prediction error median (deg)"] == 10.0
+
+
+def test_claims_give_n_of_m() -> None:
+    verdicts = claims(_runs(), paired(_runs())).set_index("claim (004)")
+    avoided = verdicts.loc["direction avoids the objects that none hits (Fig. 1); holds at >= 50 %"]
+    assert avoided.verdict == "holds" and avoided["N/M"].startswith("2/3")
+    wbis = verdicts.loc["whole-body inertia shaping rescues a predicted-unsafe fall (Fig. 9)"]
+    assert wbis.verdict == "holds" and wbis["N/M"].startswith("1/1")
+    error = verdicts.loc["prediction error median <= 15 deg (inverted-pendulum prediction, Sec. VI)"]
+    assert error.verdict == "holds" and error["N/M"].startswith("3/4")
