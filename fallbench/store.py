@@ -6,9 +6,10 @@ resumes by skipping the folders that exist.
 
 results/metrics/part-*.parquet hold every run's metric row, each run in exactly one part. A
 consolidation appends one part with the runs not yet in any part (it reads only their folders:
-O(new runs)), then merges parts size-tiered, FANOUT parts of a tier into one of the next tier,
-so a store of N runs has O(log N) parts and each row is rewritten O(log N) times, and parts of
-MAX_PART_ROWS rows or more are never rewritten. A merge is journalled (_merge.json) before it
+O(new runs)), then merges parts size-tiered, FANOUT parts of a tier into one of the next tier.
+A part of MAX_PART_ROWS rows or more is final: a merge rewrites fewer than FANOUT x MAX_PART_ROWS
+rows, a row is rewritten at most 4 times, and a store of N runs has at most N / MAX_PART_ROWS +
+4 x (FANOUT - 1) parts. A merge is journalled (_merge.json) before it
 renames anything, so an interrupted one is finished by the next consolidation or read and a row is
 never seen twice. results/metrics/_common_metadata holds the schema of all parts together.
 
@@ -46,7 +47,7 @@ COMMON_METADATA = "_common_metadata"
 JOURNAL = "_merge.json"
 LOCK = "_lock"
 FANOUT = 8
-MAX_PART_ROWS = FANOUT**5  # 32,768 rows: bounds the rows one consolidation may rewrite
+MAX_PART_ROWS = FANOUT**4  # 4,096 rows: a part this big is final, so a merge rewrites < 8 x 4,096 rows
 ROW_GROUP_ROWS = 4096
 SORT_KEYS = ("robot", "scenario", "pre_impact", "policy", "run_id")
 FILTER_KEYS = ("scenario", "policy", "pre_impact", "robot")
