@@ -40,10 +40,10 @@ def support_polygon(points: np.ndarray) -> np.ndarray:
     Fewer than three points, or collinear ones, give the degenerate hull: a segment or a point.
     scipy.spatial is imported here, not with the module: it costs ~0.3 s of start-up, and only
     runs that stand on their feet after a fall could start need it."""
-    from scipy.spatial import ConvexHull, QhullError
-
     points = np.asarray(points, dtype=float)[:, :2]
     if len(points) >= 3:
+        from scipy.spatial import ConvexHull, QhullError
+
         try:
             return points[ConvexHull(points).vertices]
         except QhullError:  # collinear or repeated: handled below
