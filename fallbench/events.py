@@ -38,21 +38,28 @@ def capture_point(com: np.ndarray, com_velocity: np.ndarray, gravity: float = GR
 def support_polygon(points: np.ndarray) -> np.ndarray:
     """Vertices (k, 2), counter-clockwise, of the convex hull of ground-plane points (n, 2).
     Fewer than three points, or collinear ones, give the degenerate hull: a segment or a point.
-    scipy.spatial is imported here, not with the module: it costs ~0.3 s of start-up, and only
-    runs that stand on their feet after a fall could start need it."""
-    points = np.asarray(points, dtype=float)[:, :2]
-    if len(points) >= 3:
-        from scipy.spatial import ConvexHull, QhullError
 
-        try:
-            return points[ConvexHull(points).vertices]
-        except QhullError:  # collinear or repeated: handled below
-            pass
-    points = np.unique(points, axis=0)
-    if len(points) <= 1:
+    Andrew's monotone chain: the hull of a few foot corners, once per control step until impact;
+    scipy's Qhull would do it too, but importing scipy.spatial adds ~0.3 s to every run's start-up."""
+    points = np.unique(np.asarray(points, dtype=float)[:, :2], axis=0)  # sorted by x, then y
+    if len(points) <= 2:
         return points
-    order = np.argsort(points @ (points[-1] - points[0]))
-    return points[[order[0], order[-1]]]
+    lower, upper = _chain(points), _chain(points[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _chain(points: np.ndarray) -> list[np.ndarray]:
+    """One half of the hull: the points where the chain turns left (collinear ones dropped)."""
+    chain: list[np.ndarray] = []
+    for point in points:
+        while len(chain) >= 2 and _cross(chain[-2], chain[-1], point) <= 0:
+            chain.pop()
+        chain.append(point)
+    return chain
+
+
+def _cross(origin: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    return float((a[0] - origin[0]) * (b[1] - origin[1]) - (a[1] - origin[1]) * (b[0] - origin[0]))
 
 
 def signed_distance(point: np.ndarray, polygon: np.ndarray) -> float:
