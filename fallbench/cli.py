@@ -13,7 +13,7 @@ from fallbench.robots import DEFAULT_ROBOT
 from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
 
 SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
-           Path("scenarios/clutter.yaml"), Path("scenarios/direction.yaml")]
+           Path("scenarios/clutter.yaml"), Path("scenarios/direction.yaml"), Path("scenarios/random.yaml")]
 SUMMARY_COLUMNS = ["imu_peak_z", "knee_limit_margin", "torque_ratio_max", "torque_demand_ratio_max",
                    "joint_limit_hits", "contact_force_peak", "contact_force_peak_head", "contact_force_peak_torso",
                    "first_impact_safe", "landing_error", "fell"]
@@ -99,7 +99,7 @@ def _same(swept: object, text: str) -> bool:
 
 @run_app.command("sweep")
 def run_sweep_command(
-    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle, clutter and direction scenarios)."),
+    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle, clutter, direction and randomised scenarios)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."),

@@ -29,6 +29,8 @@ CASES = {
     "bad_sweep_value": (GOOD + "sweep:\n  initial.height: [0.5, -1]\n", 6, "initial.height", "greater than or equal to 0"),
     "overlap": (GOOD + "obstacles:\n  - {type: box, pos: [0, 0, 0.8], size: [0.5, 0.5, 0.5]}\n", 6, "obstacles.0", "intersects the robot"),
     "unknown_policy_param": (GOOD + "policy_params:\n  oneshot: {kp_scale: 0.1}\n", 6, "policy_params.oneshot.kp_scale", "unknown parameter"),
+    "negative_posture_noise": (GOOD + "  joint_noise: -0.1\n", 5, "initial.joint_noise", "greater than or equal to 0"),
+    "bad_randomized_noise": (GOOD + "randomize:\n  initial.joint_noise: [0.1, 0.9]\n", 6, "initial.joint_noise", "less than or equal to 0.5"),
     "bad_swept_policy_param": (GOOD + "sweep:\n  policy_params.stiff.gain_scale: [1, 2]\n  policy_params.adaptive_qp.posture_k: [1]\n",
                                7, "policy_params.adaptive_qp.posture_k", "unknown parameter of 'adaptive_qp'"),
     "bad_gain_scale": (GOOD + "sweep:\n  policy_params.stiff.gain_scale: [1, 0]\n", 6, "policy_params.stiff.gain_scale", "must be > 0"),

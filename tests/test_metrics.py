@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from fallbench.metrics import imu_metrics, joint_limit_margins, landing_metrics, moving_average, torque_metrics
 
@@ -40,6 +41,30 @@ def test_torque_ratios_and_saturation_time() -> None:
     assert np.isclose(m["saturation_time"], 0.002)  # two samples with a joint past its limit
 
 
+def test_damage_measures_on_hand_made_signals() -> None:
+    """Body-weight forces, per-chain torque peaks and vulnerable parts hit, computed by hand."""
+    from types import SimpleNamespace
+
+    from fallbench.metrics import damage_metrics
+
+    robot = SimpleNamespace(torque_chains={"legs": r"leg_.*", "arms": r"arm_.*"},
+                            vulnerable_parts={"head": ("head_link",), "gripper_left": ("gripper_a", "gripper_b")})
+    model = SimpleNamespace(body_subtreemass=np.array([0.0, 10.0]))
+    world = SimpleNamespace(model=model, root_body=1, robot=robot, joint_names=("leg_1", "leg_2", "arm_1"),
+                            contact_bodies=["head_link", "gripper_a", "gripper_b", "foot"], contact_found_columns=np.array([0, 1, 2, 3]))
+    sensordata = np.zeros((4, 4))
+    sensordata[2, 1] = sensordata[3, 2] = 1  # both bodies of the left gripper touch: one part
+    sensordata[:, 3] = 1  # the foot is not vulnerable
+    torques = np.array([[10.0, -150.0, 3.0], [20.0, 40.0, -30.0], [0, 0, 0], [0, 0, 0]])
+    rec = SimpleNamespace(world=world, actuator_force=torques, sensordata=sensordata, steps=4)
+    forces = {"total": np.array([0.0, 981.0, 196.2, 0.0]), "head": np.zeros(4), "torso": np.array([0.0, 98.1, 0, 0])}
+    row = damage_metrics(rec, forces)
+    assert row["contact_force_peak_bw"] == pytest.approx(10.0)  # 981 N on a 10 kg robot
+    assert row["contact_force_peak_head_bw"] == 0.0 and row["contact_force_peak_torso_bw"] == pytest.approx(1.0)
+    assert row["torque_peak_legs"] == 150.0 and row["torque_peak_arms"] == 30.0
+    assert row["vulnerable_hits"] == 1
+    sensordata[1, 0] = 1  # and the head
+    assert damage_metrics(rec, forces)["vulnerable_hits"] == 2
 def test_landing_window_metrics_see_only_the_landing() -> None:
     """Peaks inside [impact, impact + 0.15 s] count; a bigger one 0.2 s later (the fall) does not."""
     time = np.arange(1000) * 0.001

@@ -1,8 +1,8 @@
-"""`fallbench report`: the papers' figures, sweep comparisons, a claims table, index.html and summary.md."""
+"""`fallbench report`: the answer first (rankings with intervals per robot and family), rendered falls,
+the papers' figures and claims; index.html, one page per family, and summary.md."""
 
 from __future__ import annotations
 
-import base64
 import html
 from pathlib import Path
 
@@ -10,6 +10,9 @@ import pandas as pd
 from tqdm import tqdm
 
 from fallbench import store
+from fallbench.report import pages, ranking
+from fallbench.report.filmstrips import render_filmstrips
+from fallbench.report.stats import natural_sorted
 from fallbench.report.claims import claims_table, verdict_matrix
 from fallbench.report.direction import direction_report
 from fallbench.report.preimpact import preimpact_report
@@ -31,11 +34,13 @@ def _leg(robot: str) -> tuple[dict[str, str], tuple[float, float], dict[str, flo
 
 
 def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> dict[str, list[Path]]:
-    """Figs. 4, 5, 6a, 6b for each drop or push scenario point with more than one policy, as in
-    002: gain policies alone (pre-impact strategy `none`)."""
+    """Figs. 4, 5, 6a, 6b for each drop or push scenario point (seed 0) with more than one policy,
+    as in 002: gain policies alone (pre-impact strategy `none`)."""
     figures: dict[str, list[Path]] = {}
-    ok = runs[(runs.status == "ok") & runs.scenario.str.contains("drop|push") & (runs.pre_impact == "none")]
-    points = [(point, group) for point, group in ok.groupby("point") if group.policy.nunique() > 1]
+    # seed 0 only: a randomised family gets one point's figures, not one per seed
+    ok = runs[(runs.status == "ok") & runs.scenario.str.contains("drop|push") & (runs.pre_impact == "none") & (runs.seed == 0)]
+    points = [(point, ok[ok.point == point]) for point in natural_sorted(ok.point.unique())]
+    points = [(point, group) for point, group in points if group.policy.nunique() > 1]
     for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):
         leg, knee_limits, limits = _leg(group.robot.iloc[0])
         series = {row.policy: store.load_timeseries(results, row.run_id) for row in group.itertuples()}
@@ -50,9 +55,53 @@ def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) 
     return figures
 
 
-def _img(path: Path) -> str:
-    data = base64.b64encode(path.read_bytes()).decode()
-    return f'<img src="data:image/png;base64,{data}" alt="{html.escape(path.stem)}" style="max-width:100%">'
+def _stem(text: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in text).strip("_")
+
+
+def _answer(runs: pd.DataFrame, robot: str) -> list[str]:
+    """Per scenario family: the one-line verdict and the ranking with intervals, linked to its page."""
+    body = []
+    for family in ranking.families(runs):
+        group = runs[runs.scenario == family]
+        body += [f"<h3>{pages.link(pages.family_file(robot, family), family)} "
+                 f"<small>({group.point.nunique()} points x seeds, {len(group)} runs)</small></h3>",
+                 f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>", pages.table(ranking.ranking_table(group))]
+    return body
+
+
+def _strip_images(strips: dict[str, list[Path]], out: Path, note: str) -> list[str]:
+    body = [f"<p><em>{html.escape(note)}</em></p>"] if note else []
+    for caption, paths in strips.items():
+        body += [f"<h3>{html.escape(caption)}</h3>"] + [pages.image(p, out) for p in paths]
+    return body
+
+
+def _family_page(runs: pd.DataFrame, robot: str, family: str, out: Path, figures: dict[str, list[Path]],
+                 sweep_paths: list[Path], strips: dict[str, list[Path]]) -> Path:
+    group = runs[runs.scenario == family]
+    title = f"{robot} {family}".strip()
+    body = [f"<p>{pages.link('index.html', 'overview')}</p>", f"<h1>{html.escape(title)}</h1>",
+            f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds).</p>",
+            f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>",
+            "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
+            pages.table(ranking.ranking_table(group)),
+            "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
+            pages.table(ranking.relative_changes(group)),
+            "<h2>Medians per strategy and policy</h2>", pages.table(median_table(group).round(3), index=True)]
+    mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family}_")]
+    if mine:
+        body += ["<h2>Metrics against the swept values</h2>"] + [pages.image(p, out) for p in mine]
+    strip_ids = set(group.run_id)
+    chosen = {c: [p for p in paths if p.stem.removeprefix("filmstrip_") in strip_ids] for c, paths in strips.items()}
+    body += _strip_images({c: paths for c, paths in chosen.items() if paths}, out, "")
+    points = natural_sorted(p for p in figures if p in set(group.point))
+    if points:
+        body.append("<h2>Per point: the figures of 002 (IMU z, right knee, leg torques, adaptive gains)</h2>")
+    for point in points:
+        images = "".join(pages.image(p, out) for p in figures[point] if p.suffix == ".png")
+        body.append(f"<details><summary>{html.escape(point)}</summary>{images}</details>")
+    return pages.write(out / pages.family_file(robot, family), title, body)
 
 
 def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
@@ -62,54 +111,73 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     runs = with_robot(runs)
     out.mkdir(parents=True, exist_ok=True)
     figures = paper_figures(runs, results, out, progress)
-    sweep_paths = distribution_figure(runs[runs.status == "ok"], out) + parameter_figures(runs[runs.status == "ok"], out)
+    ok = runs[runs.status == "ok"]
+    sweep_paths = distribution_figure(ok, out) + parameter_figures(ok, out)
     pre_paths, pre_tables = preimpact_report(runs, results, out)
     swept = sensitivity_runs(runs)
     sensitivity_paths = sensitivity_figure(swept, out)
     sensitivity = sensitivity_table(swept) if len(swept) else pd.DataFrame()
     direction_paths, direction_tables = direction_report(runs, results, out)
     pre_paths, pre_tables = pre_paths + direction_paths, pre_tables | direction_tables
+    strips, strip_note = render_filmstrips(runs, results, out)
     medians = median_table(runs)
     claims = claims_table(runs)
     verdicts = verdict_matrix(claims)
-    failed = runs[runs.status != "ok"][["point", "policy", "status", "error"]]
+    failed = runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]]
+    per_robot = ranking.robots(runs)
+
+    body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
+            f"{len(failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
+            "runs of a family: its sweep points and seeds.</p>", "<h2>What hurts the robot least</h2>",
+            "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
+            "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>"]
+    family_pages = []
+    for robot, robot_runs in per_robot.items():
+        if robot:
+            body.append(f"<h2>Robot {html.escape(robot)}</h2>")
+        body += _answer(robot_runs, robot)
+        family_pages += [_family_page(robot_runs, robot, f, out, figures, sweep_paths, strips) for f in ranking.families(robot_runs)]
+    body += ["<h2>Falls, rendered</h2>"] + _strip_images(strips, out, strip_note)
+    body += ["<h2>Claims of the papers</h2>", pages.table(verdicts), pages.table(claims)]
+    for robot, robot_runs in per_robot.items():
+        body += [f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
+                 pages.table(ranking.relative_changes(robot_runs))]
+    body.append("<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>")
+    for title, frame in pre_tables.items():
+        body += [f"<h3>{html.escape(title)}</h3>", pages.table(frame)]
+    body += [pages.image(p, out) for p in pre_paths if p.suffix == ".png" and not p.stem.startswith("reshaped_fall_")]
+    if len(sensitivity):
+        body += ["<h2>Sensitivity to the baseline stiffness</h2>", pages.table(sensitivity.round(3))]
+        body += [pages.image(p, out) for p in sensitivity_paths if p.suffix == ".png"]
+    body += ["<h2>More</h2><ul>"] + [f"<li>{pages.link(p.name, p.stem)}</li>" for p in family_pages]
+    body += [f"<li>{pages.link(p.name, p.stem)}</li>" for p in sweep_paths + pre_paths if p.suffix == ".png"
+             and not p.stem.startswith("sweep_") or p.stem == "sweep_distributions"] + ["</ul>"]
+    if len(failed):
+        body += ["<h2>Failed runs</h2>", pages.table(failed)]
+    index = pages.write(out / "index.html", "fallbench report", body)
 
     summary = ["# fallbench report", "", f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.", "",
-               "## Claims of 002 Sec. VI", "", verdicts.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
-               claims.to_markdown(index=False) if len(claims) else "", "",
-               "## Pre-impact strategies (none vs reshape, none vs direction)", ""]
-    for title, table in pre_tables.items():
-        summary += [f"### {title}", "", table.to_markdown(index=False) if len(table) else "(no runs)", ""]
+               "## What hurts the robot least (median [95 % bootstrap CI] over points and seeds)", ""]
+    for robot, robot_runs in per_robot.items():
+        for family in ranking.families(robot_runs):
+            group = robot_runs[robot_runs.scenario == family]
+            summary += [f"### {robot} {family}".replace("  ", " "), "", ranking.verdict(group), "",
+                        ranking.ranking_table(group).to_markdown(index=False), ""]
+    summary += ["## Claims", "", verdicts.to_markdown(index=False) if len(verdicts) else "", "",
+                claims.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
+                "## Pre-impact strategies (none vs reshape, none vs direction)", ""]
+    for title, frame in pre_tables.items():
+        summary += [f"### {title}", "", frame.to_markdown(index=False) if len(frame) else "(no runs)", ""]
     if len(sensitivity):
         summary += ["## Sensitivity to the baseline stiffness (medians per gain scale)", "",
                     sensitivity.round(3).to_markdown(index=False), ""]
     summary += ["## Medians per scenario, strategy and policy", "", medians.round(3).to_markdown(), ""]
     if len(failed):
         summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
-    summary += ["## Files", ""] + [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
+    strip_paths = [p for paths in strips.values() for p in paths]
+    summary += ["## Files", ""] + [f"- `{p.name}`" for p in family_pages + strip_paths]
+    summary += [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
     summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths + sensitivity_paths if p.suffix == ".png"]
     (out / "summary.md").write_text("\n".join(summary) + "\n")
-
-    body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
-            f"{len(failed)} failed or diverged.</p>", "<h2>Claims of 002 Sec. VI</h2>",
-            verdicts.to_html(index=False) if len(claims) else "<p>no drop runs</p>",
-            claims.to_html(index=False) if len(claims) else "",
-            "<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>"]
-    for title, table in pre_tables.items():
-        body += [f"<h3>{html.escape(title)}</h3>", table.to_html(index=False) if len(table) else "<p>no runs</p>"]
-    body += [_img(p) for p in pre_paths if p.suffix == ".png"]
-    if len(sensitivity):
-        body += ["<h2>Sensitivity to the baseline stiffness</h2>", sensitivity.round(3).to_html(index=False)]
-        body += [_img(p) for p in sensitivity_paths if p.suffix == ".png"]
-    body += ["<h2>Medians per scenario, strategy and policy</h2>", medians.round(3).to_html(),
-            "<h2>Sweep comparisons</h2>"] + [_img(p) for p in sweep_paths if p.suffix == ".png"]
-    for point, paths in figures.items():
-        body += [f"<h2>{html.escape(point)}</h2>"] + [_img(p) for p in paths if p.suffix == ".png"]
-    if len(failed):
-        body += ["<h2>Failed runs</h2>", failed.to_html(index=False)]
-    page = ("<!doctype html><html><head><meta charset='utf-8'><title>fallbench report</title>"
-            "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
-            "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px}</style></head><body>"
-            + "\n".join(body) + "</body></html>")
-    (out / "index.html").write_text(page)
-    return [out / "index.html", out / "summary.md"] + [p for paths in figures.values() for p in paths] + sweep_paths + pre_paths + sensitivity_paths
+    return ([index, out / "summary.md"] + family_pages + strip_paths + [p for paths in figures.values() for p in paths]
+            + sweep_paths + pre_paths + sensitivity_paths)

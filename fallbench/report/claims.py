@@ -1,4 +1,7 @@
-"""The qualitative claims of 002 Sec. VI, checked against our runs: holds / does not hold, with numbers.
+"""The papers' claims, checked against our runs: holds / does not hold, with the numbers, N/M counts
+(points, or paired runs, where the claim holds) and bootstrap intervals where distributions are
+compared. 002 Sec. VI: the gain policies on drops. 000 Secs. III-IV: reshaping's first impacts and
+head forces on pushes. 004: the direction strategy's obstacle hits.
 
 The IMU and torque claims are judged on the landing window (the first `metrics.LANDING_WINDOW` s after
 impact, what 002 Fig. 6 shows); the whole-episode values, which often record the fall that follows,
@@ -11,11 +14,12 @@ import pandas as pd
 
 from fallbench.report.grouping import with_robot
 from fallbench.report.sensitivity import GAIN_SCALE, sensitivity_runs, value_label
+from fallbench.report.stats import bootstrap
 from fallbench.report.style import ordered
 
 STOP = 0.0  # rad: knee margin at or below this = the knee reached its mechanical stop
 LANDING_COLUMNS = ["imu_peak_z_landing", "torque_demand_ratio_landing"]  # NaN in stores written before they existed
-CLAIMS = {  # key: (claim of 002 Sec. VI, short label of the verdict matrix)
+CLAIMS = {  # key: (claim of 002 Sec. VI as the claims table words it, short label of the verdict matrix)
     "stiff_imu": ("stiff has the highest IMU acceleration (landing)", "stiff: highest IMU"),
     "stiff_knee": ("stiff stays off the knee stop", "stiff: off the stop"),
     "oneshot_knee": ("oneshot reaches the knee's mechanical stop", "oneshot: at the stop"),
@@ -24,6 +28,11 @@ CLAIMS = {  # key: (claim of 002 Sec. VI, short label of the verdict matrix)
     "adaptive_knee": ("adaptive_qp stays off the knee stop", "adaptive_qp: off the stop"),
     "adaptive_torque": ("adaptive_qp keeps torques under their limits (landing PD demand <= limit)", "adaptive_qp: demand <= limit"),
 }
+
+
+def _count(holds: pd.Series) -> str:
+    known = holds.dropna()
+    return f"{int(known.astype(bool).sum())}/{len(known)}"
 
 
 def _values(series: pd.Series, unit: str = "") -> str:
@@ -39,32 +48,48 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
     demand = by.torque_demand_ratio_landing.median()
     demand_whole = by.torque_demand_ratio_max.median()
     applied = by.torque_ratio_max.max()
+    point = runs.point if "point" in runs else pd.Series("all", index=runs.index)
+    per_point = {m: runs.assign(point=point).pivot_table(index="point", columns="policy", values=m, aggfunc="median", dropna=False)
+                 for m in ("imu_peak_z_landing", "knee_limit_margin", "torque_demand_ratio_landing")}
+    imu_points, knee_points = per_point["imu_peak_z_landing"], per_point["knee_limit_margin"]
     rows = []
 
-    def claim(key: str, holds: bool | None, numbers: str) -> None:
+    def claim(text: str, holds: bool | None, numbers: str, points: pd.Series | None = None) -> None:
+        """`points`: per drop point, whether the claim holds there (N/M)."""
         verdict = "n/a" if holds is None else ("holds" if holds else "does not hold")
-        rows.append({"scope": scope, "claim (002 Sec. VI)": CLAIMS[key][0], "verdict": verdict, "numbers": numbers})
+        rows.append({"scope": scope, "source": "002 Sec. VI", "claim": text, "verdict": verdict,
+                     "points holding": "" if points is None else _count(points), "numbers": numbers})
 
     imu_numbers = f"landing {_values(imu)}; whole episode {_values(whole)} m/s^2 (median IMU z peak)"
     if {"stiff"} <= set(imu.index):
-        claim("stiff_imu", None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
-              imu_numbers)
-        claim("stiff_knee", bool(knee["stiff"] > STOP), f"stiff min knee margin {knee['stiff']:+.3f} rad")
+        highest = imu_points.dropna(how="all")
+        claim("stiff has the highest IMU acceleration (landing)", None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
+              imu_numbers, highest.idxmax(axis=1) == "stiff" if len(highest) else None)
+        claim("stiff stays off the knee stop", bool(knee["stiff"] > STOP), f"stiff min knee margin {knee['stiff']:+.3f} rad",
+              knee_points["stiff"] > STOP)
     for policy in ("oneshot", "zero"):
         if policy in knee.index:
-            claim(f"{policy}_knee", bool(knee[policy] <= STOP),
-                  f"{policy} min knee margin {knee[policy]:+.3f} rad")
+            claim(f"{policy} reaches the knee's mechanical stop", bool(knee[policy] <= STOP),
+                  f"{policy} min knee margin {knee[policy]:+.3f} rad", knee_points[policy] <= STOP)
     if "adaptive_qp" in imu.index:
         compared = imu.get("stiff", float("nan"))
-        claim("adaptive_imu",
-              None if pd.isna(imu["adaptive_qp"]) or pd.isna(compared) else bool(imu["adaptive_qp"] < compared), imu_numbers)
-        claim("adaptive_knee", bool(knee["adaptive_qp"] > STOP),
-              f"adaptive_qp min knee margin {knee['adaptive_qp']:+.3f} rad")
-        claim("adaptive_torque",
+        lower, difference = None, ""
+        if "stiff" in imu_points:
+            paired = (imu_points["adaptive_qp"] - imu_points["stiff"]).dropna()
+            lower = paired < 0
+            difference = f"; adaptive_qp - stiff per point, median [95 % CI]: {bootstrap(paired).format()} m/s^2" if len(paired) else ""
+        claim("adaptive_qp has a lower IMU acceleration than stiff (landing)",
+              None if pd.isna(imu["adaptive_qp"]) or pd.isna(compared) else bool(imu["adaptive_qp"] < compared),
+              imu_numbers + difference, lower)
+        claim("adaptive_qp stays off the knee stop", bool(knee["adaptive_qp"] > STOP),
+              f"adaptive_qp min knee margin {knee['adaptive_qp']:+.3f} rad", knee_points["adaptive_qp"] > STOP)
+        demand_points = per_point["torque_demand_ratio_landing"]["adaptive_qp"].dropna()
+        claim("adaptive_qp keeps torques under their limits (landing PD demand <= limit)",
               None if pd.isna(demand["adaptive_qp"]) else bool(demand["adaptive_qp"] <= 1.0),
               f"median max demand/limit {demand['adaptive_qp']:.2f} in the landing (joints under the policy), "
               f"{demand_whole['adaptive_qp']:.2f} over the episode (all joints); "
-              f"applied torque max/limit {applied['adaptive_qp']:.2f} (clamped by the motor)")
+              f"applied torque max/limit {applied['adaptive_qp']:.2f} (clamped by the motor)",
+              demand_points <= 1.0 if len(demand_points) else None)
     return rows
 
 
@@ -85,6 +110,48 @@ def _sensitivity_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
     return rows
 
 
+def _paired(runs: pd.DataFrame, column: str, strategy: str) -> pd.DataFrame:
+    """`none` and `strategy` runs of the same point and policy, side by side."""
+    key = ["point", "policy"] + (["robot"] if "robot" in runs else [])
+    none = runs[runs.pre_impact == "none"].set_index(key)[column]
+    other = runs[runs.pre_impact == strategy].set_index(key)[column]
+    return pd.concat({"none": none, strategy: other}, axis=1).dropna()
+
+
+def _share(runs: pd.DataFrame, column: str) -> str:
+    values = runs[column].dropna().astype(float)
+    return f"{int(values.sum())}/{len(values)} ({bootstrap(values, 'mean').format(2)})"
+
+
+def prescription_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
+    """000's prescriptions on the pushes, `none` vs `reshape`; 004's obstacle avoidance with `direction`."""
+    rows = []
+    pushes = runs[(runs.status == "ok") & runs.scenario.str.contains("push")]
+    scope = f"pushes ({pushes.point.nunique()} points)"
+    if {"none", "reshape"} <= set(pushes.pre_impact):
+        none, reshape = pushes[pushes.pre_impact == "none"], pushes[pushes.pre_impact == "reshape"]
+        for column, source, text in (("first_impact_safe", "000 Sec. III", "reshape lands first on hands or feet more often than none"),
+                                     ("first_impact_prescribed", "000 Sec. IV", "reshape lands as 000 prescribes for its fall class more often than none")):
+            if column in pushes:
+                holds = none[column].astype(float).mean() < reshape[column].astype(float).mean()
+                rows.append({"scope": scope, "source": source, "claim": text, "verdict": "holds" if holds else "does not hold",
+                             "points holding": "", "numbers": f"runs where it happens: none {_share(none, column)}, reshape {_share(reshape, column)}"})
+        paired = _paired(pushes, "contact_force_peak_head", "reshape")
+        if len(paired):
+            change = paired["reshape"] - paired["none"]
+            rows.append({"scope": scope, "source": "000 Sec. IV-B", "claim": "reshape lowers the head's peak force",
+                         "verdict": "holds" if change.median() < 0 else "does not hold", "points holding": _count(change < 0),
+                         "numbers": f"paired difference reshape - none (same point and policy), median [95 % CI]: {bootstrap(change).format()} N"})
+    obstacles = runs[(runs.status == "ok") & (runs.pre_impact.isin(["none", "direction"]))]
+    if "obstacle_hit" in obstacles and {"none", "direction"} <= set(obstacles.pre_impact):
+        paired = _paired(obstacles, "obstacle_hit", "direction").astype(float)
+        holds = paired["direction"].mean() < paired["none"].mean()
+        rows.append({"scope": f"obstacle layouts ({len(paired)} paired runs)", "source": "004 Sec. V", "claim": "direction hits objects less often than none",
+                     "verdict": "holds" if holds else "does not hold", "points holding": _count(paired["direction"] < paired["none"]),
+                     "numbers": f"runs that hit an object: none {_share(paired, 'none')}, direction {_share(paired, 'direction')}"})
+    return rows
+
+
 def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Claims over the single 1 m drop, over every drop run of the sweep (default gains), and per
     baseline gain scale of a sensitivity sweep; per robot."""
@@ -102,8 +169,9 @@ def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
             if len(one_metre):
                 scoped += _claims_for(one_metre, "1 m drop")
         if len(robot_drops):
-            scoped += _claims_for(robot_drops, f"all drops ({robot_drops[height].nunique() if height in robot_drops else 1} heights)")
+            scoped += _claims_for(robot_drops, f"all drops ({robot_drops.point.nunique() if 'point' in robot_drops else 1} points)")
         scoped += _sensitivity_claims(robot_runs)
+        scoped += prescription_claims(robot_runs) if "point" in robot_runs else []
         rows += [{"robot": robot, **row} for row in scoped]
     return pd.DataFrame(rows)
 
@@ -113,6 +181,9 @@ def verdict_matrix(claims: pd.DataFrame) -> pd.DataFrame:
     if claims.empty:
         return claims
     labels = {text: label for text, label in CLAIMS.values()}
-    matrix = claims.assign(claim=claims["claim (002 Sec. VI)"].map(labels)).pivot_table(
+    rows = claims[claims["claim"].isin(labels)]
+    if rows.empty:
+        return rows
+    matrix = rows.assign(claim=rows["claim"].map(labels)).pivot_table(
         index=["robot", "scope"], columns="claim", values="verdict", aggfunc="first", sort=False)
     return matrix[[label for label in labels.values() if label in matrix.columns]].reset_index()

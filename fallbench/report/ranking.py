@@ -61,7 +61,9 @@ def robots(runs: pd.DataFrame) -> dict[str, pd.DataFrame]:
 
 
 def families(runs: pd.DataFrame) -> list[str]:
-    return sorted(runs.scenario.unique(), key=natural_key)
+    """Scenario families, those with the most runs (the best-supported answers) first."""
+    sizes = runs.scenario.value_counts()
+    return sorted(runs.scenario.unique(), key=lambda f: (-sizes[f], natural_key(f)))
 
 
 def _arms(runs: pd.DataFrame) -> list[tuple[str, str]]:
@@ -114,6 +116,8 @@ def verdict(runs: pd.DataFrame) -> str:
     first_arm, second_arm = (best.pre_impact, best.policy), (second.pre_impact, second.policy)
     clear = [m.label.split(" (")[0] for m in found if est[first_arm][m.column].disjoint(est[second_arm][m.column])]
     line = f"least damage: {name} (mean rank {best['mean rank']:g} of {len(table)} over {len(found)} measures, {int(best.runs)} runs)"
+    if int(best.runs) < 2:
+        return line + "; one run each, so no interval: a ranking of single falls, not of distributions"
     if clear:
         return line + f"; its 95 % interval is clear of the runner-up's ({second.pre_impact} + {second.policy}) on " + ", ".join(clear)
     return line + f"; its intervals overlap the runner-up's ({second.pre_impact} + {second.policy}) on every measure: no clear winner"

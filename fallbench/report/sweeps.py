@@ -13,6 +13,8 @@ from fallbench.report.grouping import with_robot
 from fallbench.robots import DEFAULT_ROBOT
 from fallbench.report.style import STRATEGY_LINES, colour, ordered
 
+MAX_LINE_POINTS = 8  # more distinct values than this (a randomised key): markers only
+
 KEY_METRICS = {
     "imu_peak_z": "IMU z peak (m/s$^2$)",
     "knee_limit_margin": "knee-limit margin (rad)",
@@ -54,8 +56,10 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
             for ax, metric in zip(axes, ["imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max"]):
                 for (strategy, policy), lines in group.groupby(["pre_impact", "policy"]):
                     medians = lines.groupby(param)[metric].median()
-                    ax.plot(medians.index, medians.to_numpy(), marker="o", color=colour(policy),
-                            linestyle=STRATEGY_LINES.get(strategy, "-."), label=f"{policy} ({strategy})")
+                    scattered = values.nunique() > MAX_LINE_POINTS  # randomised values: points, not lines
+                    ax.plot(medians.index, medians.to_numpy(), marker="o", color=colour(policy), markersize=4 if scattered else 6,
+                            linestyle="none" if scattered else STRATEGY_LINES.get(strategy, "-."), label=f"{policy} ({strategy})",
+                            fillstyle="none" if strategy == "none" else "full")
                 ax.set(xlabel=_axis(param), ylabel=KEY_METRICS[metric], title=KEY_METRICS[metric].split(" (")[0])
                 ax.grid(alpha=0.3)
             axes[0].legend(fontsize=8)

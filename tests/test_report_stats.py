@@ -1,0 +1,119 @@
+"""The report's statistics and answer: bootstrap intervals on a known distribution, natural sort,
+rankings, verdicts and changes against the unprotected fall on hand-made rows."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from fallbench.report.ranking import ranking_table, relative_changes, verdict
+from fallbench.report.stats import bootstrap, natural_sorted
+
+
+def test_bootstrap_interval_covers_a_known_median_about_95_percent_of_the_time() -> None:
+    rng = np.random.default_rng(42)
+    trials = 300
+    covered = 0
+    for _ in range(trials):
+        sample = rng.exponential(scale=1.0, size=40)  # median ln 2
+        estimate = bootstrap(sample, resamples=500)
+        covered += estimate.low <= np.log(2) <= estimate.high
+    assert 0.88 <= covered / trials <= 0.99, covered / trials
+
+
+def test_bootstrap_is_deterministic_and_handles_small_samples() -> None:
+    sample = np.random.default_rng(1).normal(5.0, 1.0, 25)
+    first, again = bootstrap(sample), bootstrap(sample)
+    assert (first.value, first.low, first.high) == (again.value, again.low, again.high)
+    assert first.low < first.value < first.high and first.n == 25
+    assert bootstrap(sample, "mean", seed=1).low != bootstrap(sample, "mean").low  # the seed is what makes it repeatable
+    single = bootstrap([3.0, np.nan])
+    assert single.value == 3.0 and np.isnan(single.low) and single.n == 1 and single.format() == "3 (n=1)"
+    constant = bootstrap([2.0, 2.0, 2.0])
+    assert (constant.low, constant.high) == (2.0, 2.0)
+    fraction = bootstrap([True, False, True, True], "mean")
+    assert fraction.value == 0.75 and 0.0 <= fraction.low <= fraction.high <= 1.0
+
+
+def test_natural_sort_orders_swept_values_by_number() -> None:
+    labels = ["drop[initial.height=1.25]#s0", "drop[initial.height=1]#s0", "drop[initial.height=0.75]#s0",
+              "push[push.direction=-30]#s0", "push[push.direction=30]#s0", "push[push.direction=0]#s10", "push[push.direction=0]#s2"]
+    assert natural_sorted(labels) == [
+        "drop[initial.height=0.75]#s0", "drop[initial.height=1]#s0", "drop[initial.height=1.25]#s0",
+        "push[push.direction=-30]#s0", "push[push.direction=0]#s2", "push[push.direction=0]#s10", "push[push.direction=30]#s0"]
+
+
+def _family(seed: int = 0) -> pd.DataFrame:
+    """20 points; `reshape + zero` hits the head half as hard as the others, everything else equal."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for point in range(20):
+        for strategy, policy, head in (("none", "stiff", 1000.0), ("none", "zero", 1000.0), ("reshape", "zero", 500.0)):
+            rows.append({"scenario": "fam", "point": f"fam#s{point}", "status": "ok", "pre_impact": strategy, "policy": policy,
+                         "imu_peak_z": 100 + rng.normal(0, 5), "contact_force_peak_head": head * (1 + rng.normal(0, 0.05)),
+                         "contact_force_peak_torso": 800 + rng.normal(0, 20), "knee_limit_margin": 0.5, "joint_limit_hits": 0,
+                         "fell": True, "contact_force_peak_head_bw": head / 900, "vulnerable_hits": 1 if head > 600 else 0})
+    return pd.DataFrame(rows)
+
+
+def test_ranking_puts_the_gentler_arm_first_with_intervals_and_a_clear_verdict() -> None:
+    runs = _family()
+    table = ranking_table(runs)
+    assert (table.pre_impact[0], table.policy[0]) == ("reshape", "zero")
+    assert list(table.runs) == [20, 20, 20]
+    head = table["head peak force (N)"][0]
+    low, high = (float(x) for x in head[head.index("[") + 1 : -1].split(","))
+    assert low < 500 < high and high < 900
+    assert "IMU z peak, whole run (m/s²)" in table.columns  # the landing peak falls back to the whole run's
+    line = verdict(runs)
+    assert line.startswith("least damage: reshape + zero") and "head peak force" in line
+    same = _family().assign(contact_force_peak_head=1000.0, vulnerable_hits=1)
+    assert "no clear winner" in verdict(same)
+
+
+def test_changes_against_the_unprotected_fall_are_paired_by_point() -> None:
+    runs = _family()
+    changes = relative_changes(runs).set_index(["pre_impact", "policy"])
+    assert ("none", "stiff") not in changes.index
+    assert changes.loc[("reshape", "zero"), "paired runs"] == 20
+    assert changes.loc[("reshape", "zero"), "head peak force (%)"].startswith("-50 [")
+    assert changes.loc[("none", "zero"), "head peak force (%)"].startswith("0 [")
+    assert changes.loc[("reshape", "zero"), "vulnerable parts hit (difference)"] == "-1 [-1, -1]"
+
+
+def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
+    """Overview answers first, per robot and family, links its figures; one page per family;
+    points in natural order; no filmstrips without drop or push runs, and no error."""
+    from fallbench import store
+    from fallbench.report import build_report
+
+    rng = np.random.default_rng(3)
+    results, out = tmp_path / "results", tmp_path / "reports"
+    n = 0
+    for robot in ("talos", "g1"):
+        for family in ("alpha", "beta"):
+            for x in (1.25, 0.75, 1.0):
+                for seed in range(3):
+                    for strategy, policy in (("none", "stiff"), ("none", "zero"), ("reshape", "zero")):
+                        n += 1
+                        row = {"run_id": f"r{n:04d}", "robot": robot, "scenario": family, "point": f"{family}[x={x:g}]#s{seed}",
+                               "status": "ok", "error": "", "pre_impact": strategy, "policy": policy, "seed": seed, "param:x": x,
+                               "imu_peak_z": 100 + 10 * rng.random(), "contact_force_peak_head": 1000 * rng.random(),
+                               "contact_force_peak_torso": 500.0, "knee_limit_margin": 0.3, "joint_limit_hits": 0,
+                               "torque_demand_ratio_max": 1.0, "contact_force_peak": 2000.0, "fell": True,
+                               "first_impact_group": "hands", "first_impact_safe": True, "obstacle_force_peak": 0.0,
+                               "landing_error": np.nan, "time_to_first_impact": 0.5, "contact_force_peak_bw": 2.0,
+                               "vulnerable_hits": 0, "impact_time": 0.5}
+                        store.write_run(results, row["run_id"], {"point": row["point"]}, row, None)
+    store.consolidate(results)
+    paths = build_report(results, out, progress=False)
+    page = (out / "index.html").read_text()
+    assert "data:image" not in page and len(page) < 200_000
+    assert page.index("What hurts the robot least") < page.index("Claims of the papers")
+    assert page.count("least damage:") == 4 and "Robot g1" in page and "Robot talos" in page
+    assert "head peak force (N)" in page and "[" in page
+    family = out / "family_talos_alpha.html"
+    assert family in paths and (out / "family_g1_beta.html").exists()
+    text = family.read_text()
+    assert "Change against the unprotected fall" in text and 'src="sweep_alpha_x.png"' in text
+    assert not list(out.glob("filmstrip_*.png"))
