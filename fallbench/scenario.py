@@ -59,7 +59,7 @@ class Initial(Strict):
     posture: Name = DEFAULT_POSTURE  # a posture of the robot; every robot has `default`, its nominal stance
     height: Annotated[float, Field(ge=0, le=10)] = 0.0  # m between the feet and the floor at t = 0
     joints: dict[Name, Annotated[float, Field(ge=-6.3, le=6.3)]] = {}  # rad, overrides of the posture
-    joint_noise: Annotated[float, Field(ge=0, le=0.5)] = 0.0  # rad, half-width of a uniform offset per joint, drawn from the seed
+    joint_noise: Annotated[float, Field(ge=0, le=0.5)] = 0.0  # rad, half-width of a uniform offset per joint outside the legs, drawn from the seed
 
 
 class Push(Strict):

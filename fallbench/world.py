@@ -320,6 +320,10 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
         data.qpos[model.jnt_qposadr[joint.id]] = value
     if scenario.initial.joint_noise > 0:  # posture noise, the same for every policy of a seed
         noise = np.random.default_rng([scenario.seed, POSTURE_NOISE_STREAM]).uniform(-1, 1, len(world.joint_names))
+        # The legs keep the posture: noise there tilts the soles (0.03 rad on each of six leg joints
+        # leaves a sole's corners up to ~2 cm apart), so a standing start would rest on one corner,
+        # drop, and be declared a fall at t = 0 with a foot's landing as the impact.
+        noise[np.isin(world.joint_names, robot.leg_joints)] = 0.0
         noisy = data.qpos[world.qpos_adr] + scenario.initial.joint_noise * noise
         data.qpos[world.qpos_adr] = np.clip(noisy, world.joint_range[:, 0], world.joint_range[:, 1])
     root_adr = model.jnt_qposadr[model.body_jntadr[world.root_body]]

@@ -14,6 +14,7 @@ from fallbench.events import (CapturePointDetector, FallDetector, FreefallDetect
                               signed_distance, support_polygon)
 from fallbench.metrics import compute_metrics
 from fallbench.scenario import Push, Scenario
+from fallbench.world import build_world, initial_state
 
 SQUARE = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]])  # m, a 0.2 x 0.1 foot
 UPRIGHT = np.eye(3)
@@ -105,3 +106,15 @@ def test_capture_point_fires_before_tilt_on_a_fall() -> None:
     assert 0.1 < row["fall_time_capture_point"] < 0.35  # within 0.25 s of the push onset (0.1 s)
     assert row["fall_time_capture_point"] + 0.3 < row["fall_time_tilt"] < 1.0
     assert row["fall_time"] == row["fall_time_capture_point"]
+
+
+def test_posture_noise_moves_the_upper_body_and_leaves_the_robot_standing() -> None:
+    """Noise on the legs would tilt the soles and start the robot on one corner (a fall at t = 0)."""
+    still = Scenario(name="p", duration=0.5)
+    noisy = Scenario(name="p", duration=0.5, initial={"joint_noise": 0.03}, seed=3)
+    world = build_world(noisy)
+    moved = initial_state(world, noisy).qpos[world.qpos_adr] - initial_state(world, still).qpos[world.qpos_adr]
+    legs = np.isin(world.joint_names, world.robot.leg_joints)
+    assert np.all(moved[legs] == 0.0) and np.all(np.abs(moved[~legs]) <= 0.03) and np.abs(moved[~legs]).max() > 0.01
+    rec = run_episode(noisy, "stiff")
+    assert rec.fall_time is None and rec.fall_times == {}
