@@ -18,9 +18,20 @@ from fallbench.world import World
 UNIT_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
 
 
+def welded_bodies(model: mujoco.MjModel, body: int) -> list[int]:
+    """The body and every descendant attached to it without a joint: one rigid body. A URDF may put
+    a link's collision geometry on a fixed child (G1's pelvis: `pelvis_contour_link`)."""
+    bodies = [body]
+    for child in range(body + 1, model.nbody):
+        if model.body_parentid[child] in bodies and model.body_jntnum[child] == 0:
+            bodies.append(child)
+    return bodies
+
+
 def body_box_corners(model: mujoco.MjModel, body: int) -> tuple[np.ndarray, np.ndarray]:
-    """A body's collision geoms and the 8 corners of each one's bounding box, (n, 8, 3) in the geom frames."""
-    geoms = np.flatnonzero((model.geom_bodyid == body) & (model.geom_contype > 0))
+    """A rigid body's collision geoms (its own and its welded children's, see welded_bodies) and
+    the 8 corners of each one's bounding box, (n, 8, 3) in the geom frames."""
+    geoms = np.flatnonzero(np.isin(model.geom_bodyid, welded_bodies(model, body)) & (model.geom_contype > 0))
     aabb = model.geom_aabb[geoms]  # centre (3) and half extents (3), geom frame
     return geoms, aabb[:, None, :3] + UNIT_CORNERS[None] * aabb[:, None, 3:]
 

@@ -92,3 +92,22 @@ def test_point_selector_matches_the_robot(tmp_path: Path) -> None:
     assert "drop[robot=g1,initial.height=0.5]#s0" in result.output and "pelvis" in (tmp_path / "scene.xml").read_text()
     ambiguous = CliRunner().invoke(app, ["scenarios", "export", str(ROOT / "scenarios/drop.yaml"), "--point", "initial.height=0.5"])
     assert ambiguous.exit_code == 2 and "selects 2 points" in ambiguous.output
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_root_and_feet_have_collision_corners(name: str) -> None:
+    """The buttocks (root body) and the feet give box corners on every robot, their welded children's
+    geometry included (G1's pelvis collides through a fixed child); TALOS's are its own body's."""
+    import numpy as np
+
+    from fallbench.scenario import Scenario
+    from fallbench.support import body_box_corners
+    from fallbench.world import build_world
+
+    world = build_world(Scenario(name="x", robot=name, duration=1.0))
+    for body in [world.root_body] + [world.model.body(b).id for b in world.robot.body_groups["feet"]]:
+        geoms, corners = body_box_corners(world.model, body)
+        assert len(geoms) > 0 and corners.shape == (len(geoms), 8, 3)
+        if name == "talos":
+            assert set(world.model.geom_bodyid[geoms]) == {body}
+    assert np.isfinite(corners).all()
