@@ -51,3 +51,20 @@ def test_none_gets_the_obstacle_metrics_too() -> None:
     row = compute_metrics(run_episode(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
     assert "direction_strategy" not in row and row["n_safe_regions"] == 2
     assert 0.0 <= row["actual_fall_direction_deg"] < 360.0
+
+
+def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
+    """004 Sec. I-c: whole-body inertia shaping cannot start before the foot placement is complete.
+    004 Fig. 7's layout (351 N forward): no step is predicted safe, so tracking switches to whole-body
+    shaping, but only after the step's foot is down; switching in flight abandoned the step."""
+    from pathlib import Path
+
+    from fallbench.scenario import load_scenarios
+
+    point = next(p for p in load_scenarios([Path(__file__).resolve().parents[1] / "scenarios" / "direction.yaml"])
+                 if p.scenario.name == "dir_fig7")
+    rec = run_episode(point.scenario, "stiff", "direction")
+    strategy = rec.strategy
+    assert strategy is not None and strategy.plan is not None and strategy.plan.chosen.kind == "take_step"
+    assert strategy.step_done is not None  # the foot landed
+    assert strategy.tracking_switch is None or strategy.tracking_switch >= strategy.step_done

@@ -21,7 +21,7 @@ import pinocchio as pin
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.events import capture_point, support_polygon
 from fallbench.preimpact.base import Strategy
-from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, landed_states, predict, step_directions
+from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
 from fallbench.preimpact.direction.inertia import damped_solve, desired_inertia, inertia_about, inertia_jacobian, to_vector
@@ -174,26 +174,22 @@ class DirectionStrategy(Strategy):
 
     def _track(self, t: float, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
         """004 Secs. IV, VI: the strategy runs "in an interactive manner": every `tracking_period` s
-        the fall is predicted again from the present state, about the planned support (the present
-        one once a step has landed), and whole-body inertia shaping starts when it has become unsafe.
-        Forced modes (ablations) run as chosen."""
+        the fall is predicted again from the present state about the present support, and whole-body
+        inertia shaping starts when it has become unsafe; a step is tracked only once its foot is
+        down. Forced modes (ablations) run as chosen."""
         plan, config = self.plan, self.config
         assert plan is not None
         if not config.tracking or config.mode != "auto" or plan.chosen.kind == "no_action" or plan.inertia_shaping == "wbis":
             return
+        if plan.chosen.kind == "take_step" and self.step_done is None:
+            return  # 004 Sec. I-c: whole-body inertia shaping "cannot be launched before foot placement is completed"
         if self.tracked is not None and t - self.tracked < config.tracking_period - 1e-9:
             return
         self.tracked = t
         state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
         polygon, coms, velocities = plan.chosen.polygon, com[None], com_velocity[None]
         soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
-        if plan.chosen.kind == "take_step" and self.step_done is None:  # in flight: on the stance foot until it lands
-            assert plan.chosen.swing is not None and plan.chosen.target is not None
-            stance = next(soles[side] for side in soles if side != plan.chosen.swing)
-            remaining = float(np.linalg.norm(plan.chosen.target - soles[plan.chosen.swing].mean(axis=0))) / config.foot_speed
-            on_stance, _ = predict([stance], coms, velocities, state)
-            coms, velocities = landed_states(on_stance, 0, np.array([remaining]))
-        elif plan.chosen.kind == "take_step":
+        if plan.chosen.kind == "take_step":  # landed: about the present support
             polygon = support_polygon(np.vstack(list(soles.values())))
         directions, _, _ = step_directions([polygon], coms, velocities, self.origin, state)
         if score(float(directions[0]), self.regions, config.w1, config.w2) > 1.0:
