@@ -51,6 +51,19 @@ def test_none_gets_the_obstacle_metrics_too() -> None:
     row = compute_metrics(run_episode(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
     assert "direction_strategy" not in row and row["n_safe_regions"] == 2
     assert 0.0 <= row["actual_fall_direction_deg"] < 360.0
+    assert row["actual_fall_touchdown"] is False  # 0.5 s after the push the CoM is still high: end of run used
+
+
+def test_actual_direction_says_whether_the_com_touched_down() -> None:
+    """004 Fig. 6's backward fall into free space reaches the touchdown height; its direction is backward."""
+    from pathlib import Path
+
+    from fallbench.scenario import load_scenarios
+
+    point = next(p for p in load_scenarios([Path(__file__).resolve().parents[1] / "scenarios" / "direction.yaml"])
+                 if p.scenario.name == "dir_fig6")
+    row = compute_metrics(run_episode(point.scenario, "stiff", "none"))
+    assert row["actual_fall_touchdown"] is True and row["actual_fall_direction_deg"] == pytest.approx(180.0, abs=5.0)
 
 
 def test_whole_body_shaping_waits_for_the_step_to_land() -> None:

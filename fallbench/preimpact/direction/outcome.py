@@ -57,7 +57,8 @@ def obstacle_metrics(rec: "Recording", origin_time: float | None) -> dict[str, A
     row: dict[str, Any] = {"obstacle_hit": bool(any(f.any() for f in found))}
     impact = rec.impact_events[0].t if rec.impact_events else rec.time[-1]
     row["obstacle_clearance_at_impact"] = clearance(rec, min(int(np.searchsorted(rec.time, impact)), len(rec.time) - 1))
-    nan = {"actual_fall_direction_deg": math.nan, "actual_in_safe_region": False, "actual_score": math.nan, "n_safe_regions": -1}
+    nan = {"actual_fall_direction_deg": math.nan, "actual_in_safe_region": False, "actual_score": math.nan, "n_safe_regions": -1,
+           "actual_fall_touchdown": False}
     if origin_time is None or not math.isfinite(origin_time):
         return row | nan
     every = max(round(scenario.control_dt / scenario.physics_dt), 1)
@@ -71,6 +72,7 @@ def obstacle_metrics(rec: "Recording", origin_time: float | None) -> dict[str, A
                                          config.consider_factor * config.robot_height), origin)
     direction = math.atan2(delta[1], delta[0]) % (2 * math.pi)
     row["actual_fall_direction_deg"] = math.degrees(direction)
+    row["actual_fall_touchdown"] = bool(len(low))  # False: the CoM never got that low (e.g. leaning on an object); end of run used
     row["actual_in_safe_region"] = any(r.contains(direction) for r in regions)
     row["actual_score"] = score(direction, regions, config.w1, config.w2)
     row["n_safe_regions"] = len(regions)
