@@ -78,3 +78,22 @@ def test_armature_is_in_both_models(robot: str) -> None:
     np.testing.assert_allclose(P.model.armature[P.actuated_v], world.model.dof_armature[world.qvel_adr])
     if robot == "talos":  # the SRDF's rotor_params: 1e-5 kg m^2 x gear ratio 100^2
         np.testing.assert_allclose(world.model.dof_armature[world.qvel_adr[joints]], 0.1)
+
+
+def test_the_pinocchio_cache_keeps_its_world_alive() -> None:
+    """A cached model holds its world, so that a world evicted from the world cache cannot be freed
+    and its id given to a new world, which would then get the old world's model (another robot's)."""
+    import gc
+    import weakref
+
+    from fallbench import world as world_module
+    from fallbench.dynamics.model import pinocchio_for
+    from fallbench.scenario import Scenario
+
+    world = world_module.build_world(Scenario(name="cache", duration=1.0, friction=0.61))
+    alive = weakref.ref(world)
+    assert pinocchio_for(world).model.nq == world.model.nq
+    world_module._WORLDS.clear()  # as when eight newer worlds have evicted it
+    del world
+    gc.collect()
+    assert alive() is not None

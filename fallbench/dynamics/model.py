@@ -63,14 +63,21 @@ def build_pinocchio(world: SimulatedRobot) -> PinocchioModel:
     return PinocchioModel(model, model.createData(), np.array(q_map), np.array(v_map), actuated)
 
 
-_PINOCCHIO: dict[int, PinocchioModel] = {}
+_PINOCCHIO: dict[int, tuple[SimulatedRobot, PinocchioModel]] = {}
+PINOCCHIO_CACHE_SIZE = 16  # models kept; a sweep's worker sees few distinct worlds
 
 
 def pinocchio_for(world: SimulatedRobot) -> PinocchioModel:
-    """One Pinocchio model per compiled world in this process (worlds are cached and kept alive)."""
-    if id(world) not in _PINOCCHIO:
-        _PINOCCHIO[id(world)] = build_pinocchio(world)
-    return _PINOCCHIO[id(world)]
+    """One Pinocchio model per compiled world in this process. Each entry holds its world, so that
+    no other world can take its id while it is cached: keyed by a bare id, a world compiled after
+    the world cache (8 worlds) had evicted another could get the evicted one's id, and with it the
+    other's model (seen: G1 drops run on TALOS's model, 'Index out of range' in select_motors)."""
+    entry = _PINOCCHIO.get(id(world))
+    if entry is None:
+        if len(_PINOCCHIO) >= PINOCCHIO_CACHE_SIZE:
+            _PINOCCHIO.pop(next(iter(_PINOCCHIO)))
+        entry = _PINOCCHIO[id(world)] = (world, build_pinocchio(world))
+    return entry[1]
 
 
 def select_motors(P: PinocchioModel, bodies: set[str], joint_names: tuple[str, ...]) -> np.ndarray:
