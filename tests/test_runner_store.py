@@ -74,7 +74,10 @@ def _finished(results: Path) -> int:
 def _killed_sweep(path: Path, results: Path, sig: int) -> None:
     cmd = [sys.executable, "-m", "fallbench.cli", "run", "sweep", str(path), "--results", str(results),
            "--jobs", "1", "--policies", "stiff,oneshot,zero", "--pre-impact", "none", "--reports", str(results / "rep"), "--no-progress"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # SIGINT back to its default in the child: a shell's background job inherits it ignored, and
+    # the sweep would then run to the end whatever the test sends
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
     while time.time() < deadline and _finished(results) < 2:
         time.sleep(0.05)
