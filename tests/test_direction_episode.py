@@ -4,12 +4,13 @@ lands is a planned contact (not an impact), and the obstacle metrics of every ru
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
 from fallbench.episode import Recording, run_episode
 from fallbench.metrics import compute_metrics
-from fallbench.scenario import Scenario
+from fallbench.scenario import Scenario, load_scenarios
 
 RING4 = [
     {"type": "box", "pos": [1.25, 0.0, 0.375], "size": [0.6, 0.6, 0.75]},
@@ -17,8 +18,14 @@ RING4 = [
     {"type": "box", "pos": [-0.479, -1.316, 0.9], "size": [0.4, 1.0, 1.8], "yaw": 70},
     {"type": "cylinder", "pos": [0.849, -0.849, 0.75], "radius": 0.15, "height": 1.5},
 ]
+SHIPPED = Path(__file__).resolve().parents[1] / "scenarios" / "direction.yaml"
 FORWARD = Scenario(name="dir_forward", duration=1.1, push={"force": 384, "duration": 0.1, "start": 0.1, "direction": 0},
                    obstacles=RING4, policy_params={"direction": {"mode": "take_step"}})
+
+
+def _shipped(name: str) -> Scenario:
+    """The scenario of a point of the shipped direction.yaml."""
+    return next(p.scenario for p in load_scenarios([SHIPPED]) if p.scenario.name == name)
 
 
 @pytest.fixture(scope="module")
@@ -56,13 +63,7 @@ def test_none_gets_the_obstacle_metrics_too() -> None:
 
 def test_actual_direction_says_whether_the_com_touched_down() -> None:
     """004 Fig. 6's backward fall into free space reaches the touchdown height; its direction is backward."""
-    from pathlib import Path
-
-    from fallbench.scenario import load_scenarios
-
-    point = next(p for p in load_scenarios([Path(__file__).resolve().parents[1] / "scenarios" / "direction.yaml"])
-                 if p.scenario.name == "dir_fig6")
-    row = compute_metrics(run_episode(point.scenario, "stiff", "none"))
+    row = compute_metrics(run_episode(_shipped("dir_fig6"), "stiff", "none"))
     assert row["actual_fall_touchdown"] is True and row["actual_fall_direction_deg"] == pytest.approx(180.0, abs=5.0)
 
 
@@ -70,13 +71,7 @@ def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
     """004 Sec. I-c: whole-body inertia shaping cannot start before the foot placement is complete.
     004 Fig. 7's layout (351 N forward): no step is predicted safe, so tracking switches to whole-body
     shaping, but only after the step's foot is down; switching in flight abandoned the step."""
-    from pathlib import Path
-
-    from fallbench.scenario import load_scenarios
-
-    point = next(p for p in load_scenarios([Path(__file__).resolve().parents[1] / "scenarios" / "direction.yaml"])
-                 if p.scenario.name == "dir_fig7")
-    rec = run_episode(point.scenario, "stiff", "direction")
+    rec = run_episode(_shipped("dir_fig7"), "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.chosen.kind == "take_step"
     assert strategy.step_done is not None  # the foot landed

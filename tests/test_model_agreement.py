@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import gc
+import weakref
+
 import mujoco
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.dynamics.model import build_pinocchio
+from fallbench import world as world_module
+from fallbench.dynamics.model import build_pinocchio, pinocchio_for
 from fallbench.robots import ROBOTS
 from fallbench.scenario import Scenario
 from fallbench.world import build_world, initial_state
@@ -83,13 +87,6 @@ def test_armature_is_in_both_models(robot: str) -> None:
 def test_the_pinocchio_cache_keeps_its_world_alive() -> None:
     """A cached model holds its world, so that a world evicted from the world cache cannot be freed
     and its id given to a new world, which would then get the old world's model (another robot's)."""
-    import gc
-    import weakref
-
-    from fallbench import world as world_module
-    from fallbench.dynamics.model import pinocchio_for
-    from fallbench.scenario import Scenario
-
     world = world_module.build_world(Scenario(name="cache", duration=1.0, friction=0.61))
     alive = weakref.ref(world)
     assert pinocchio_for(world).model.nq == world.model.nq

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import SHIPPED, app
 from fallbench.robots import ROBOTS, get_robot
-from fallbench.scenario import load_scenario_file, load_scenarios
+from fallbench.scenario import Scenario, load_scenario_file, load_scenarios
+from fallbench.support import body_box_corners
+from fallbench.world import build_world
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -98,12 +101,6 @@ def test_point_selector_matches_the_robot(tmp_path: Path) -> None:
 def test_root_and_feet_have_collision_corners(name: str) -> None:
     """The buttocks (root body) and the feet give box corners on every robot, their welded children's
     geometry included (G1's pelvis collides through a fixed child); TALOS's are its own body's."""
-    import numpy as np
-
-    from fallbench.scenario import Scenario
-    from fallbench.support import body_box_corners
-    from fallbench.world import build_world
-
     world = build_world(Scenario(name="x", robot=name, duration=1.0))
     for body in [world.root_body] + [world.model.body(b).id for b in world.robot.body_groups["feet"]]:
         geoms, corners = body_box_corners(world.model, body)

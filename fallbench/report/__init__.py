@@ -55,10 +55,6 @@ def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) 
     return figures
 
 
-def _stem(text: str) -> str:
-    return "".join(c if c.isalnum() else "_" for c in text).strip("_")
-
-
 def _answer(runs: pd.DataFrame, robot: str) -> list[str]:
     """Per scenario family: the one-line verdict and the ranking with intervals, linked to its page."""
     body = []

@@ -54,22 +54,22 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
     imu_points, knee_points = per_point["imu_peak_z_landing"], per_point["knee_limit_margin"]
     rows = []
 
-    def claim(text: str, holds: bool | None, numbers: str, points: pd.Series | None = None) -> None:
+    def claim(key: str, holds: bool | None, numbers: str, points: pd.Series | None = None) -> None:
         """`points`: per drop point, whether the claim holds there (N/M)."""
         verdict = "n/a" if holds is None else ("holds" if holds else "does not hold")
-        rows.append({"scope": scope, "source": "002 Sec. VI", "claim": text, "verdict": verdict,
+        rows.append({"scope": scope, "source": "002 Sec. VI", "claim": CLAIMS[key][0], "verdict": verdict,
                      "points holding": "" if points is None else _count(points), "numbers": numbers})
 
     imu_numbers = f"landing {_values(imu)}; whole episode {_values(whole)} m/s^2 (median IMU z peak)"
     if {"stiff"} <= set(imu.index):
         highest = imu_points.dropna(how="all")
-        claim("stiff has the highest IMU acceleration (landing)", None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
+        claim("stiff_imu", None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
               imu_numbers, highest.idxmax(axis=1) == "stiff" if len(highest) else None)
-        claim("stiff stays off the knee stop", bool(knee["stiff"] > STOP), f"stiff min knee margin {knee['stiff']:+.3f} rad",
+        claim("stiff_knee", bool(knee["stiff"] > STOP), f"stiff min knee margin {knee['stiff']:+.3f} rad",
               knee_points["stiff"] > STOP)
     for policy in ("oneshot", "zero"):
         if policy in knee.index:
-            claim(f"{policy} reaches the knee's mechanical stop", bool(knee[policy] <= STOP),
+            claim(f"{policy}_knee", bool(knee[policy] <= STOP),
                   f"{policy} min knee margin {knee[policy]:+.3f} rad", knee_points[policy] <= STOP)
     if "adaptive_qp" in imu.index:
         compared = imu.get("stiff", float("nan"))
@@ -78,13 +78,13 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
             paired = (imu_points["adaptive_qp"] - imu_points["stiff"]).dropna()
             lower = paired < 0
             difference = f"; adaptive_qp - stiff per point, median [95 % CI]: {bootstrap(paired).format()} m/s^2" if len(paired) else ""
-        claim("adaptive_qp has a lower IMU acceleration than stiff (landing)",
+        claim("adaptive_imu",
               None if pd.isna(imu["adaptive_qp"]) or pd.isna(compared) else bool(imu["adaptive_qp"] < compared),
               imu_numbers + difference, lower)
-        claim("adaptive_qp stays off the knee stop", bool(knee["adaptive_qp"] > STOP),
+        claim("adaptive_knee", bool(knee["adaptive_qp"] > STOP),
               f"adaptive_qp min knee margin {knee['adaptive_qp']:+.3f} rad", knee_points["adaptive_qp"] > STOP)
         demand_points = per_point["torque_demand_ratio_landing"]["adaptive_qp"].dropna()
-        claim("adaptive_qp keeps torques under their limits (landing PD demand <= limit)",
+        claim("adaptive_torque",
               None if pd.isna(demand["adaptive_qp"]) else bool(demand["adaptive_qp"] <= 1.0),
               f"median max demand/limit {demand['adaptive_qp']:.2f} in the landing (joints under the policy), "
               f"{demand_whole['adaptive_qp']:.2f} over the episode (all joints); "

@@ -52,11 +52,11 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
             values = group[param].dropna()
             if values.nunique() < 2 or not pd.api.types.is_numeric_dtype(values):  # string parameters (a forced mode) have no axis
                 continue
+            scattered = values.nunique() > MAX_LINE_POINTS  # randomised values: points, not lines
             fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
             for ax, metric in zip(axes, ["imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max"]):
                 for (strategy, policy), lines in group.groupby(["pre_impact", "policy"]):
                     medians = lines.groupby(param)[metric].median()
-                    scattered = values.nunique() > MAX_LINE_POINTS  # randomised values: points, not lines
                     ax.plot(medians.index, medians.to_numpy(), marker="o", color=colour(policy), markersize=4 if scattered else 6,
                             linestyle="none" if scattered else STRATEGY_LINES.get(strategy, "-."), label=f"{policy} ({strategy})",
                             fillstyle="none" if strategy == "none" else "full")

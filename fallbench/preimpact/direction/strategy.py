@@ -187,11 +187,10 @@ class DirectionStrategy(Strategy):
             return
         self.tracked = t
         state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
-        polygon, coms, velocities = plan.chosen.polygon, com[None], com_velocity[None]
-        soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
+        polygon = plan.chosen.polygon
         if plan.chosen.kind == "take_step":  # landed: about the present support
-            polygon = support_polygon(np.vstack(list(soles.values())))
-        directions, _, _ = step_directions([polygon], coms, velocities, self.origin, state)
+            polygon = support_polygon(np.vstack([sole_corners(self.world.model, data, body) for body in self.feet.values()]))
+        directions, _, _ = step_directions([polygon], com[None], com_velocity[None], self.origin, state)
         if score(float(directions[0]), self.regions, config.w1, config.w2) > 1.0:
             plan.inertia_shaping, self.tracking_switch = "wbis", t
 
