@@ -385,7 +385,7 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
             return f"policy_params.{policy}.{unknown[0]}", f"unknown parameter of {policy!r} (known: {known})"
         for key, value in params.items():
             problem = _parameter_problem(parameters[policy][key], value)
-            allowed = getattr(STRATEGIES.get(policy), "choices", {}).get(key)
+            allowed = getattr(POLICIES.get(policy) or STRATEGIES.get(policy), "choices", {}).get(key)
             if not problem and allowed and value not in allowed:
                 problem = f"expected one of {', '.join(allowed)} (got {value!r})"
             if problem:

@@ -8,8 +8,8 @@ import pytest
 
 import fallbench.policies.adaptive_qp as adaptive
 from fallbench.control.adaptive_gains_qp import QPConfig, build_problem
-from fallbench.dynamics.contacts import cone_matrix, environment_contacts, normal_matrix
-from fallbench.dynamics.dense_qp import DenseQP
+from fallbench.dynamics.contacts import cone_matrix, environment_contacts
+from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import select_motors
 from fallbench.dynamics.terms import model_terms
 from fallbench.episode import run_episode
@@ -51,20 +51,21 @@ def _solve(step, config: QPConfig = QPConfig()):
     terms = model_terms(P, q, v, points, inertia=True)
     problem = build_problem(P, terms, points, selected, q_ref, policy.com_ref, e, e_dot, held, world.torque_limit,
                             policy.scenario.control_dt, config)
-    status, solved, _, y = DenseQP(config.eps_abs, config.max_iter, config.max_iter_in).solve(problem)
+    status, solved, _, y = make_solver(config.solver, config.eps_abs, config.max_iter, config.max_iter_in).solve(problem)
     assert solved, status
     n_l, n_s = problem.n_lambda, len(selected)
     qdd = problem.acceleration.M @ y + problem.acceleration.m
     return terms, problem, qdd, y[:n_l], y[n_l : n_l + n_s], y[n_l + n_s :], e, e_dot
 
 
-def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impact) -> None:
+@pytest.mark.parametrize("solver", QP_SOLVERS)
+def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impact, solver: str) -> None:
     sample = [s for s in post_impact if s[6]][::10]
     assert len(sample) >= 4
     for step in sample:
         policy, points, s, held = step[0], step[6], step[7], step[8]
         P, limits = policy.P, policy.world.torque_limit
-        terms, problem, qdd, lam, K, B, e, e_dot = _solve(step)
+        terms, problem, qdd, lam, K, B, e, e_dot = _solve(step, QPConfig(solver=solver))
         # Dynamics (eq. 10), all rows: H qdd + C - J' G lambda = tau; tau = 0 on the base, K e + B e_dot
         # on the selected motors (eq. 15), the held PD torque on the others.
         tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ cone_matrix(points) @ lam
@@ -75,12 +76,28 @@ def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impa
         others = np.setdiff1d(np.arange(len(limits)), s)
         np.testing.assert_allclose(tau[P.actuated_v[others]], held[others], atol=TOL * scale)
         # Contact rows: every contact point's normal acceleration n'(J qdd + J_dot qd) is zero.
-        normal_acc = normal_matrix(points) @ (terms.contacts.jacobian @ qdd + terms.contacts.drift)
+        acc = (terms.contacts.jacobian @ qdd + terms.contacts.drift).reshape(-1, 3)
+        normal_acc = np.einsum("ij,ij->i", acc, np.array([p.normal for p in points]))
         assert np.abs(normal_acc).max() < 1e-3 * max(1.0, np.abs(qdd).max()), normal_acc
         # Torque limits (eq. 12) and bounds (eq. 13) to the solver's tolerance in its scaled variables.
         assert np.all(np.abs(planned) <= limits[s] * (1 + 1e-4) + 1e-3)
         eps = 10 * QPConfig().eps_abs * problem.scale
         assert np.all(lam >= -eps[: len(lam)]) and np.all(K >= -eps[len(lam) : len(lam) + len(K)]) and np.all(B >= -eps[-len(B):])
+
+
+def test_both_solvers_reach_the_same_optimum(post_impact) -> None:
+    """ProxSuite (to eps_abs) and DAQP (exact active set) on every third recorded state: the same
+    cost at their solutions, in the solver's scaled variables."""
+    compared = 0
+    for step in [s for s in post_impact if s[6]][::3]:
+        costs = []
+        for solver in QP_SOLVERS:
+            _, problem, _, lam, K, B, *_ = _solve(step, QPConfig(solver=solver))
+            x = np.concatenate([lam, K, B]) / problem.scale
+            costs.append(0.5 * x @ problem.H @ x + problem.g @ x)
+        assert abs(costs[0] - costs[1]) <= 1e-4 * max(1.0, abs(costs[0])), costs
+        compared += 1
+    assert compared >= 10
 
 
 def test_a_resting_foot_has_zero_normal_acceleration(post_impact) -> None:

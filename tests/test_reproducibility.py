@@ -1,5 +1,6 @@
-"""Bit-identical metrics for the QP-driven policy and strategy (`adaptive_qp`, `reshape`) from
-fresh processes, with 1 or 2 jobs (the fixed-gain policies are covered in test_runner_store)."""
+"""Bit-identical metrics for the QP-driven policy and strategy (`adaptive_qp`, `reshape`), with either
+QP solver, from fresh processes, with 1 or 2 jobs (the fixed-gain policies are covered in
+test_runner_store)."""
 
 from __future__ import annotations
 
@@ -20,6 +21,17 @@ name: qp_push
 duration: 1.45           # s: first impact at ~1.4 s
 pre_impact: [reshape]
 push: {force: 370, duration: 0.1, start: 0.1, direction: 0}
+---
+name: qp_drop_daqp
+duration: 0.6
+initial: {height: 1.0}
+policy_params: {adaptive_qp: {solver: daqp}}
+---
+name: qp_push_daqp
+duration: 1.45
+pre_impact: [reshape]
+push: {force: 370, duration: 0.1, start: 0.1, direction: 0}
+policy_params: {adaptive_qp: {solver: daqp}, reshape: {solver: daqp}}
 """
 TIMINGS = re.compile(r"_ms(_|$)|^wall_time_s$")  # wall-clock figures differ from run to run by nature
 
@@ -30,7 +42,7 @@ def _sweep(path: Path, results: Path, jobs: int) -> pd.DataFrame:
     done = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     table = load_metrics(results).set_index("run_id").sort_index()
-    assert set(table.status) == {"ok"} and len(table) == 2
+    assert set(table.status) == {"ok"} and len(table) == 4
     return table[[c for c in table.columns if not TIMINGS.search(c)]]
 
 
@@ -38,7 +50,8 @@ def test_qp_runs_are_bit_identical_across_processes_and_job_counts(tmp_path: Pat
     path = tmp_path / "qp.yaml"
     path.write_text(SCENARIOS)
     first = _sweep(path, tmp_path / "first", 1)
-    assert first.loc[first.scenario == "qp_push", "preimpact_qp_steps"].iloc[0] > 10  # the reshaping QP ran
-    assert first.loc[first.scenario == "qp_drop", "qp_steps"].iloc[0] > 10  # the adaptive-gain QP ran
+    for suffix in ("", "_daqp"):
+        assert first.loc[first.scenario == "qp_push" + suffix, "preimpact_qp_steps"].iloc[0] > 10  # the reshaping QP ran
+        assert first.loc[first.scenario == "qp_drop" + suffix, "qp_steps"].iloc[0] > 10  # the adaptive-gain QP ran
     pd.testing.assert_frame_equal(first, _sweep(path, tmp_path / "second", 1))
     pd.testing.assert_frame_equal(first, _sweep(path, tmp_path / "two_jobs", 2))

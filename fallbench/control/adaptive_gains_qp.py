@@ -36,7 +36,7 @@ import numpy as np
 
 from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactPoint, cone_matrix
-from fallbench.dynamics.dense_qp import DenseQP, ScaledQP
+from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.limits.contact import normal_acceleration_rows, tangential_motion_cost
 from fallbench.dynamics.model import PinocchioModel
 from fallbench.dynamics.objective import AccelerationMap, SetPoint
@@ -72,9 +72,10 @@ class QPConfig:
     w_balance: float = 0.0
     balance_rate: float = 10.0  # 1/s, capture-point convergence rate
     ridge: float = 1e-3  # numerical regularisation, relative to the equilibrated Hessian's unit diagonal
-    eps_abs: float = 1e-6
-    # Iteration caps bound the solver's rare very long solves (seen: 62 s uncapped after the fall);
-    # a capped solve counts as a failure and the last gains are kept.
+    solver: str = "proxsuite"  # or "daqp" (fallbench.dynamics.dense_qp.QP_SOLVERS)
+    eps_abs: float = 1e-6  # ProxSuite's absolute tolerance, DAQP's primal tolerance
+    # ProxSuite's iteration caps bound its rare very long solves (seen: 62 s uncapped after the
+    # fall); a capped solve counts as a failure and the last gains are kept.
     max_iter: int = 200
     max_iter_in: int = 50
 
@@ -113,12 +114,16 @@ def variable_scale(n_lambda: int, e: np.ndarray, e_dot: np.ndarray) -> np.ndarra
 def acceleration_map(P: PinocchioModel, terms: ModelTerms, JtG: np.ndarray, selected: np.ndarray, e: np.ndarray,
                      e_dot: np.ndarray, held_torque: np.ndarray) -> AccelerationMap:
     """q_ddot = M (lambda, K_S, B_S) + m from eq. 10 with the non-selected torques known (eq. 15)."""
-    H_inv = terms.H_inv
-    columns = H_inv[:, P.actuated_v[selected]]
-    M = np.hstack([H_inv @ JtG, columns * e[selected], columns * e_dot[selected]])
-    others = np.ones(len(e), dtype=bool)
-    others[selected] = False
-    m = H_inv[:, P.actuated_v[others]] @ held_torque[others] - H_inv @ terms.C
+    H_inv, motors = terms.H_inv, P.actuated_v[selected]
+    n_l, n_s = JtG.shape[1], len(selected)
+    M = np.empty((len(H_inv), n_l + 2 * n_s))
+    M[:, :n_l] = H_inv @ JtG
+    np.multiply(H_inv[:, motors], e[selected], out=M[:, n_l : n_l + n_s])
+    np.multiply(H_inv[:, motors], e_dot[selected], out=M[:, n_l + n_s :])
+    held = np.zeros(len(H_inv))
+    held[P.actuated_v] = held_torque
+    held[motors] = 0.0
+    m = H_inv @ (held - terms.C)
     return AccelerationMap(M, m)
 
 
@@ -129,7 +134,7 @@ def _tasks(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], q_r
         SetPoint(config.w_posture, None, q_joints - q_ref, np.zeros(len(q_ref)), config.posture_kp, config.posture_kv,
                  rows=P.actuated_v),
         SetPoint(config.w_com, terms.J_com, terms.com - com_ref, terms.com_drift, config.com_kp, config.com_kv),
-        tangential_motion_cost(points, terms.contacts, config.w_tangential, dt),
+        tangential_motion_cost(terms.contacts, config.w_tangential, dt),
     ]
     if config.w_balance > 0 and points:
         # capture point xi = c + c_dot / omega driven to the contact centre p at `balance_rate` k:
@@ -154,7 +159,7 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
     acceleration = acceleration_map(P, terms, JtG, selected, e, e_dot, held_torque)
     qp = QPBuilder(acceleration, scale, terms.v)
 
-    qp.zero_acceleration(*normal_acceleration_rows(points, terms.contacts))
+    qp.zero_acceleration(*normal_acceleration_rows(terms.contacts))
     e_s, e_dot_s, limit_s = e[selected], e_dot[selected], torque_limit[selected]
     torque_rows = np.zeros((n_s, len(scale)))
     diagonal = np.arange(n_s)
@@ -179,7 +184,7 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
     return QPProblem(**vars(problem), n_lambda=n_l, selected=selected, acceleration=acceleration)
 
 
-def solve_step(qp: DenseQP, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint],
+def solve_step(qp: QPSolver, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint],
                selected: np.ndarray, q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray,
                held_torque: np.ndarray, torque_limit: np.ndarray, dt: float, config: QPConfig) -> tuple[QPResult, QPProblem]:
     started = time.perf_counter()
@@ -190,7 +195,8 @@ def solve_step(qp: DenseQP, P: PinocchioModel, q: np.ndarray, v: np.ndarray, poi
     status, solved, iterations, y = qp.solve(problem)
     solved_at = time.perf_counter()
     n_l, n_s = problem.n_lambda, len(selected)
-    qdd = problem.acceleration.M @ y + problem.acceleration.m
-    result = QPResult(status, solved and bool(np.isfinite(y).all()), iterations, qdd, y[:n_l], y[n_l : n_l + n_s], y[n_l + n_s :],
+    finite = bool(np.isfinite(y).all())  # a failed solve may return no iterate at all
+    qdd = problem.acceleration.M @ y + problem.acceleration.m if finite else np.full(len(problem.acceleration.m), np.nan)
+    result = QPResult(status, solved and finite, iterations, qdd, y[:n_l], y[n_l : n_l + n_s], y[n_l + n_s :],
                       (modelled - started) * 1e3, (built - modelled) * 1e3, (solved_at - built) * 1e3)
     return result, problem

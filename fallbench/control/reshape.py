@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from fallbench.dynamics.contacts import environment_contacts
-from fallbench.dynamics.dense_qp import DenseQP
+from fallbench.dynamics.dense_qp import make_solver
 from fallbench.control.fall_direction import FallDirection, fall_class, heading
 from fallbench.control.fall_posture import fall_posture
 from fallbench.control.landing import Candidate, choose, landing_candidates
@@ -76,8 +76,9 @@ class ReshapeConfig:
     w_qdd: float = 1e-4
     w_contact: float = 100.0  # contact points neither sinking in nor lifting off (a cost, not a constraint)
     pivot: Literal["contacts", "knees", "knees_and_buttocks"] = "contacts"  # the landing search's stick, see _stick
-    eps_abs: float = 1e-6
-    # Iteration caps bound the solver's rare very long solves (seen: 49 s with ProxSuite's
+    solver: str = "proxsuite"  # or "daqp" (fallbench.dynamics.dense_qp.QP_SOLVERS)
+    eps_abs: float = 1e-6  # ProxSuite's absolute tolerance, DAQP's primal tolerance
+    # ProxSuite's iteration caps bound its rare very long solves (seen: 49 s with ProxSuite's
     # defaults); a capped solve counts as a failure and the references coast for that step.
     max_iter: int = 200
     max_iter_in: int = 100
@@ -116,7 +117,7 @@ class ReshapeController:
         self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
         leg_joints = [j for root in (leg[0] for leg in robot.legs.values()) for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
-        self.qp = DenseQP(self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
+        self.qp = make_solver(self.cfg.solver, self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
         self.direction: FallDirection | None = None
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
         self.landings: list[Landing] = []

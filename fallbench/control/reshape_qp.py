@@ -23,7 +23,7 @@ import numpy as np
 
 from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactPoint, cone_matrix
-from fallbench.dynamics.dense_qp import DenseQP, ScaledQP
+from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.limits.contact import normal_motion_cost
 from fallbench.dynamics.limits.joint import QDD_BOUND, joint_acceleration_bounds
 from fallbench.dynamics.model import PinocchioModel
@@ -66,14 +66,14 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: list[Con
     if points:
         # contacts neither sink in nor lift off: a stiff cost rather than an equality, so that a
         # tipping foot's contact points cannot make the problem infeasible
-        costs.append(normal_motion_cost(points, terms.contacts, w_contact, dt))
+        costs.append(normal_motion_cost(terms.contacts, w_contact, dt))
     qp.cost(costs)
     qp.regularise(qdd, w_qdd)
     qp.regularise(lam, w_lambda)
     return ReshapeProblem(**vars(qp.build()), n_qdd=nv)
 
 
-def solve_reshape(qp: DenseQP, problem: ReshapeProblem) -> tuple[str, bool, np.ndarray | None]:
+def solve_reshape(qp: QPSolver, problem: ReshapeProblem) -> tuple[str, bool, np.ndarray | None]:
     """(status, solved, q_ddot (Pinocchio coordinates) or None when not solved)."""
     status, solved, _, x = qp.solve(problem)
     if not solved or not np.isfinite(x).all():

@@ -15,6 +15,7 @@ class QPBuilder:
         n = len(scale)
         self.acceleration, self.scale, self.v = acceleration, scale, v
         self.H, self.g = np.zeros((n, n)), np.zeros(n)
+        self.diagonal = self.H.reshape(-1)[:: n + 1]  # a view of H's diagonal
         self.equalities: list[tuple[np.ndarray, np.ndarray]] = []
         self.inequalities: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.lower, self.upper = np.full(n, -np.inf), np.full(n, np.inf)
@@ -24,8 +25,7 @@ class QPBuilder:
 
     def regularise(self, variables: slice, weight: float) -> None:
         """weight |y[variables]|^2."""
-        index = np.arange(len(self.scale))[variables]
-        self.H[index, index] += weight
+        self.diagonal[variables] += weight
 
     def equal(self, A: np.ndarray, b: np.ndarray) -> None:
         """A y = b."""
@@ -62,9 +62,9 @@ class QPBuilder:
         u = np.concatenate([up for _, _, up in self.inequalities]) if self.inequalities else np.zeros(0)
         scale = self.scale
         if equilibrate:
-            curvature = np.diag(self.H) * scale**2
+            curvature = self.diagonal * scale**2
             scale = scale / np.sqrt(np.where(curvature > 0, curvature, 1.0))
         H = scale[:, None] * self.H * scale[None, :]
-        H[np.diag_indices(n)] += ridge
+        H.reshape(-1)[:: n + 1] += ridge
         return ScaledQP(H=H, g=scale * self.g, A=A * scale, b=b, C=C * scale, l=l, u=u,
                         l_box=self.lower / scale, u_box=self.upper / scale, scale=scale)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 from fallbench.dynamics.model import PinocchioModel
-from fallbench.dynamics.tasks.body_point import points_kinematics
+from fallbench.dynamics.tasks.body_point import bodies_points_kinematics
 
 
 @dataclass
@@ -30,57 +30,59 @@ class ContactKinematics:
     jacobian: np.ndarray  # (3 n, nv) point Jacobians, Pinocchio velocity coordinates
     drift: np.ndarray  # (3 n,) J_dot q_dot, m/s^2
     velocity: np.ndarray  # (3 n,) m/s
+    normals: np.ndarray  # (n, 3) unit, world, into the robot
+    body_of: np.ndarray  # (n,) index of each point's body, bodies numbered in first-seen order
+    normal_jacobian: np.ndarray  # (n, nv) n'J of each point
+    normal_drift: np.ndarray  # (n,) n' J_dot q_dot, m/s^2
 
 
 def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.ndarray, mu: float) -> np.ndarray:
-    edges = np.stack([normal + mu * tangent1, normal - mu * tangent1, normal + mu * tangent2, normal - mu * tangent2], axis=1)
-    return edges / np.linalg.norm(edges, axis=0)
+    """(3, 4) unit edges of the linearized cone about `normal`; with (k, 3) arguments, (k, 3, 4)."""
+    edges = np.stack([normal + mu * tangent1, normal - mu * tangent1, normal + mu * tangent2, normal - mu * tangent2], axis=-1)
+    return edges / np.sqrt(np.add.reduce(edges * edges, axis=-2, keepdims=True))
 
 
 def cone_matrix(points: list[ContactPoint]) -> np.ndarray:
     """G (3 n, 4 n): block diagonal of the points' friction-cone generators; forces = G lambda."""
-    G = np.zeros((3 * len(points), 4 * len(points)))
-    for i, point in enumerate(points):
-        G[3 * i : 3 * i + 3, 4 * i : 4 * i + 4] = point.generators
-    return G
-
-
-def normal_matrix(points: list[ContactPoint]) -> np.ndarray:
-    """N (n, 3 n): row i picks point i's normal component out of stacked 3D vectors."""
-    N = np.zeros((len(points), 3 * len(points)))
-    for i, point in enumerate(points):
-        N[i, 3 * i : 3 * i + 3] = point.normal
-    return N
+    n = len(points)
+    blocks = np.zeros((n, 3, n, 4))
+    diagonal = np.arange(n)
+    if points:
+        blocks[diagonal, :, diagonal, :] = [point.generators for point in points]
+    return blocks.reshape(3 * n, 4 * n)
 
 
 def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: float) -> list[ContactPoint]:
     """Contacts between a robot body and the world's static geoms (floor, obstacles)."""
-    points = []
-    for i in range(data.ncon):
-        contact = data.contact[i]
-        body1, body2 = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
-        if (body1 == 0) == (body2 == 0):  # robot self-contact, or world-world
-            continue
-        frame = contact.frame.reshape(3, 3)
-        sign = 1.0 if body1 == 0 else -1.0  # MuJoCo's normal points from geom1 to geom2
-        robot_body = body2 if body1 == 0 else body1
-        normal = sign * frame[0]
-        points.append(ContactPoint(model.body(robot_body).name, contact.pos.copy(), normal,
-                                   friction_generators(normal, frame[1], frame[2], friction), i, sign))
-    return points
+    contacts = data.contact
+    bodies = model.geom_bodyid[contacts.geom[: data.ncon]]  # (ncon, 2): geom1's and geom2's bodies
+    index = np.flatnonzero((bodies[:, 0] == 0) != (bodies[:, 1] == 0))  # not self-contact, not world-world
+    if not len(index):
+        return []
+    frames = contacts.frame[index].reshape(-1, 3, 3)
+    signs = np.where(bodies[index, 0] == 0, 1.0, -1.0)  # MuJoCo's normal points from geom1 to geom2
+    normals = signs[:, None] * frames[:, 0]
+    generators = friction_generators(normals, frames[:, 1], frames[:, 2], friction)
+    robot_bodies = np.where(bodies[index, 0] == 0, bodies[index, 1], bodies[index, 0])
+    positions = contacts.pos[index]
+    return [ContactPoint(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body), positions[k], normals[k], generators[k], int(i), float(signs[k]))
+            for k, (i, body) in enumerate(zip(index, robot_bodies))]
 
 
 def contact_kinematics(P: PinocchioModel, v: np.ndarray, points: list[ContactPoint]) -> ContactKinematics:
     """Point Jacobians, drifts and velocities, one frame computation per contact body; needs
     forwardKinematics(q, v, 0) and computeJointJacobians(q) done on P.data."""
-    model, data = P.model, P.data
-    n = len(points)
-    jacobian = np.zeros((n, 3, model.nv))
-    drift = np.zeros((n, 3))
-    for body in dict.fromkeys(p.body for p in points):  # first-seen order
-        rows = [i for i, p in enumerate(points) if p.body == body]
-        origin = data.oMf[model.getFrameId(body)].translation
-        offsets = np.array([points[i].position for i in rows]) - origin
-        jacobian[rows], drift[rows] = points_kinematics(model, data, body, offsets)
+    model, data, n = P.model, P.data, len(points)
+    if not points:
+        empty = np.zeros(0)
+        return ContactKinematics(np.zeros((0, model.nv)), empty, empty, np.zeros((0, 3)), np.zeros(0, dtype=int), np.zeros((0, model.nv)), empty)
+    bodies = list(dict.fromkeys(p.body for p in points))  # first-seen order
+    frames = [P.frame_id(body) for body in bodies]
+    body_of = np.array([bodies.index(p.body) for p in points])
+    origins = np.array([data.oMf[frame].translation for frame in frames])
+    offsets = np.array([p.position for p in points]) - origins[body_of]
+    jacobian, drift = bodies_points_kinematics(model, data, frames, body_of, offsets)
+    normals = np.array([p.normal for p in points])
+    normal_jacobian, normal_drift = (normals[:, None, :] @ jacobian)[:, 0], (normals * drift).sum(axis=1)
     jacobian = jacobian.reshape(3 * n, model.nv)
-    return ContactKinematics(jacobian, drift.reshape(3 * n), jacobian @ v)
+    return ContactKinematics(jacobian, drift.reshape(3 * n), jacobian @ v, normals, body_of, normal_jacobian, normal_drift)

@@ -1,4 +1,5 @@
-"""The one ProxSuite wrapper of both QPs: a dense solver reused while the problem's sizes stay the same.
+"""The QP solvers of both QPs, behind one `solve(problem)`: ProxSuite's dense solver (the default)
+and DAQP's dual active-set solver (an option, `solver: daqp`).
 
 Determinism: ProxSuite's AVX2 and AVX-512 builds (the ones `import proxsuite` picks on this kind of
 machine) return different solution bits for the same problem depending on where the heap placed the
@@ -6,6 +7,11 @@ solver's workspace (measured with ProxSuite 0.8.0: identical problems and calls,
 allocation before the solver's creation changed, gave different iterates). Heap layout differs from
 one process to the next, so a QP-driven run was not bit-reproducible. The plain SSE2 build does not
 depend on it and is as fast on these small problems, so it is the one loaded here.
+
+Speed: on the adaptive-gain QP (24-80 variables) ProxSuite's interior steps cost ~40-100 us each
+(one KKT factorisation over all variables and constraints, box constraints included), ~0.2-0.3 ms
+per solve; DAQP's active-set steps are rank-one updates of a factorisation, ~0.05 ms per solve from
+scratch. DAQP solves exactly up to its primal tolerance; ProxSuite up to eps_abs.
 """
 
 from __future__ import annotations
@@ -13,7 +19,9 @@ from __future__ import annotations
 import sys
 import types
 from dataclasses import dataclass
+from typing import Protocol
 
+import daqp
 import numpy as np
 
 
@@ -34,6 +42,8 @@ def _load_plain_proxsuite() -> types.ModuleType:
 
 proxsuite = _load_plain_proxsuite()
 
+QP_SOLVERS = ("proxsuite", "daqp")
+
 
 @dataclass
 class ScaledQP:
@@ -51,9 +61,14 @@ class ScaledQP:
     scale: np.ndarray
 
 
-class DenseQP:
-    """One ProxSuite solver per problem size (sizes change with the number of contacts), kept for
-    the episode unless its solve fails. With `warm_start` each solve starts from that solver's
+class QPSolver(Protocol):
+    def solve(self, problem: ScaledQP) -> tuple[str, bool, int, np.ndarray]:
+        """(status, solved, iterations, x in physical units); status as ProxSuite names it."""
+
+
+class ProxSuiteQP:
+    """One ProxSuite dense solver per problem size (sizes change with the number of contacts), kept
+    for the episode unless its solve fails. With `warm_start` each solve starts from that solver's
     previous solution (fewer iterations on a sequence of similar problems); otherwise from the
     equality-constrained guess."""
 
@@ -73,7 +88,6 @@ class DenseQP:
         return solver
 
     def solve(self, problem: ScaledQP) -> tuple[str, bool, int, np.ndarray]:
-        """(status, solved, iterations, x in physical units)."""
         args = (problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u, problem.l_box, problem.u_box)
         dims = (problem.H.shape[0], problem.A.shape[0], problem.C.shape[0])
         solver = self.solvers.get(dims)
@@ -88,3 +102,39 @@ class DenseQP:
         if status != "SOLVED":
             del self.solvers[dims]  # a failed iterate is no start for the next solve
         return status, status == "SOLVED", int(info.iter), problem.scale * solver.results.x
+
+
+DAQP_INFINITY = 1e30  # DAQP's own infinity: bounds at or beyond it are absent
+DAQP_EQUALITY = 5  # sense flags ACTIVE | IMMUTABLE: the row is an equality
+DAQP_STATUS = {1: "SOLVED", 2: "SOLVED", -1: "PRIMAL_INFEASIBLE", -2: "CYCLING", -3: "DUAL_INFEASIBLE",
+               -4: "MAX_ITER_REACHED", -5: "NONCONVEX", -6: "PRIMAL_INFEASIBLE", -7: "TIME_LIMIT"}  # -6: inconsistent equalities
+
+
+class DaqpQP:
+    """DAQP's dual active-set solver, from scratch at each solve (a cold DAQP solve is already
+    faster than a warm ProxSuite one here). Needs H positive definite, which both QPs' ridges and
+    regularisations give. `primal_tol` (same units as the constraints) plays eps_abs's part."""
+
+    def __init__(self, primal_tol: float, iter_limit: int = 1000) -> None:  # 1000: DAQP's default
+        self.primal_tol, self.iter_limit = primal_tol, iter_limit
+
+    def solve(self, problem: ScaledQP) -> tuple[str, bool, int, np.ndarray]:
+        n, n_eq = len(problem.g), len(problem.b)
+        # DAQP's rows: simple bounds on the first n variables, then the general rows (A, then C)
+        upper = np.minimum(np.concatenate([problem.u_box, problem.b, problem.u]), DAQP_INFINITY)
+        lower = np.maximum(np.concatenate([problem.l_box, problem.b, problem.l]), -DAQP_INFINITY)
+        sense = np.zeros(len(upper), dtype=np.int32)
+        sense[n : n + n_eq] = DAQP_EQUALITY
+        x, _, exitflag, info = daqp.solve(problem.H, problem.g, np.vstack([problem.A, problem.C]), upper, lower, sense,
+                                          primal_tol=self.primal_tol, iter_limit=self.iter_limit)
+        status = DAQP_STATUS.get(exitflag, f"DAQP_EXIT_{exitflag}")
+        return status, exitflag in (1, 2), int(info["iterations"]), problem.scale * np.asarray(x)
+
+
+def make_solver(name: str, eps_abs: float, max_iter: int, max_iter_in: int, warm_start: bool = False) -> QPSolver:
+    """The named solver (QP_SOLVERS); the iteration caps are ProxSuite's."""
+    if name == "proxsuite":
+        return ProxSuiteQP(eps_abs, max_iter, max_iter_in, warm_start)
+    if name == "daqp":
+        return DaqpQP(eps_abs)
+    raise ValueError(f"unknown QP solver {name!r} (known: {', '.join(QP_SOLVERS)})")

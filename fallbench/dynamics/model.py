@@ -7,7 +7,7 @@ is in the world frame; Pinocchio's is (x, y, z, w) and its base velocity is in t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import mujoco
@@ -33,6 +33,14 @@ class PinocchioModel:
     mj_to_pin_q: np.ndarray  # for each Pinocchio joint q index (after the base): MuJoCo qpos index
     mj_to_pin_v: np.ndarray  # likewise for velocities
     actuated_v: np.ndarray  # Pinocchio v index of each MuJoCo actuator
+    frame_ids: dict[str, int] = field(default_factory=dict)  # name -> id, as getFrameId (first frame of a name), filled on use
+
+    def frame_id(self, name: str) -> int:
+        """model.getFrameId(name), cached (the lookup is a search over all frames' names)."""
+        frame = self.frame_ids.get(name)
+        if frame is None:
+            frame = self.frame_ids[name] = self.model.getFrameId(name)
+        return frame
 
     def state(self, qpos_mj: np.ndarray, qvel_mj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in Pinocchio's convention from MuJoCo's qpos, qvel."""

@@ -3,6 +3,7 @@ tasks, limits and the acceleration map (Pinocchio coordinates, Pinocchio's veloc
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,11 +27,16 @@ class ModelTerms:
     J_com: np.ndarray  # (3, nv)
 
 
+@functools.cache
+def _strictly_lower(n: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.tril_indices(n, -1)
+
+
 def _symmetric(upper: np.ndarray) -> np.ndarray:
     """The full matrix from Pinocchio's upper triangle (crba, computeMinverse fill only that)."""
-    lower = np.tril_indices(len(upper), -1)
+    lower = _strictly_lower(len(upper))
     full = upper.copy()
-    full[lower] = upper.T[lower]
+    full[lower] = full.T[lower]
     return full
 
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from fallbench.control.adaptive_gains_qp import QPConfig, solve_step
 from fallbench.dynamics.contacts import environment_contacts
-from fallbench.dynamics.dense_qp import DenseQP
+from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.dynamics.tasks.com import ComTask
 from fallbench.policies.base import GainPolicy, Observation
@@ -35,15 +35,17 @@ class AdaptiveQPPolicy(GainPolicy):
     name = "adaptive_qp"
     needs_contacts = True
     defaults: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(QPConfig)}
+    choices = {"solver": QP_SOLVERS}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
         self.config = QPConfig(**self.params)
         self.P = pinocchio_for(world)
-        self.qp = DenseQP(self.config.eps_abs, self.config.max_iter, self.config.max_iter_in, warm_start=True)
+        self.qp = make_solver(self.config.solver, self.config.eps_abs, self.config.max_iter, self.config.max_iter_in, warm_start=True)
         self.com_ref: np.ndarray | None = None
         self.kp, self.kd = self.default_kp.copy(), self.default_kd.copy()
         self.selected = np.zeros(len(world.joint_names), dtype=bool)  # grows, never shrinks
+        self.selecting_bodies: set[str] = set()  # bodies whose chains are in the selection
         self.records: list[dict[str, float]] = []
         self.failures = 0
 
@@ -52,7 +54,10 @@ class AdaptiveQPPolicy(GainPolicy):
         if self.com_ref is None:
             self.com_ref = ComTask.state(self.P.model, self.P.data, q, v)[0]
         points = environment_contacts(self.world.model, observation.data, self.scenario.friction)
-        self.selected[select_motors(self.P, {p.body for p in points}, self.world.joint_names)] = True
+        touching = {p.body for p in points} - self.selecting_bodies  # the selection only grows: new bodies only
+        if touching:
+            self.selecting_bodies |= touching
+            self.selected[select_motors(self.P, touching, self.world.joint_names)] = True
         record: dict[str, float] = {"t": observation.t, "qp_contacts": len(points)}
         if self.selected.any():
             selected = np.flatnonzero(self.selected)

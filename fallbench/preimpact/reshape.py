@@ -8,7 +8,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from fallbench.control.reshape import RESHAPE_PARAMS, ReshapeController
+from fallbench.control.reshape import PIVOTS, RESHAPE_PARAMS, ReshapeController
+from fallbench.dynamics.dense_qp import QP_SOLVERS
 from fallbench.preimpact.base import Strategy
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
@@ -19,6 +20,7 @@ class ReshapeStrategy(Strategy):
     name = "reshape"
     defaults = RESHAPE_PARAMS
     per_chain_switching = True
+    choices = {"pivot": PIVOTS, "solver": QP_SOLVERS}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)

@@ -13,43 +13,42 @@ from __future__ import annotations
 
 import numpy as np
 
-from fallbench.dynamics.contacts import ContactKinematics, ContactPoint, normal_matrix
+from fallbench.dynamics.contacts import ContactKinematics
 from fallbench.dynamics.objective import SetPoint
 
 RANK_TOLERANCE = 1e-6  # relative to a body's largest singular value
 
 
-def normal_acceleration_rows(points: list[ContactPoint], kinematics: ContactKinematics) -> tuple[np.ndarray, np.ndarray]:
+def normal_acceleration_rows(kinematics: ContactKinematics) -> tuple[np.ndarray, np.ndarray]:
     """(R, r): independent rows with R q_ddot + r = 0 equivalent to zero normal acceleration of every point."""
-    nv = kinematics.jacobian.shape[1]
-    if not points:
+    body_of, nv = kinematics.body_of, kinematics.jacobian.shape[1]
+    if not len(body_of):
         return np.zeros((0, nv)), np.zeros(0)
-    normals = normal_matrix(points)
-    rows, drifts = normals @ kinematics.jacobian, normals @ kinematics.drift
-    bodies = [p.body for p in points]
-    groups = [[i for i, b in enumerate(bodies) if b == body] for body in dict.fromkeys(bodies)]  # first-seen order
-    width = max(len(g) for g in groups)
-    # one batched SVD for all bodies, each block padded with zero rows (zero singular values)
-    stacked = np.zeros((len(groups), width, nv + 1))
-    for k, group in enumerate(groups):
-        stacked[k, : len(group), :nv], stacked[k, : len(group), nv] = rows[group], drifts[group]
-    U, s, _ = np.linalg.svd(stacked[:, :, :nv], full_matrices=False)
-    keep = s > RANK_TOLERANCE * s[:, :1]
-    combined = np.concatenate([U[k][:, keep[k]].T @ stacked[k] for k in range(len(groups))])
+    # one batched SVD for all bodies: body k's rows (n'J | n' J_dot q_dot) in block k, padded with zero rows
+    counts = np.bincount(body_of)
+    order = np.argsort(body_of, kind="stable")
+    slot = np.empty(len(body_of), dtype=int)
+    slot[order] = np.arange(len(body_of)) - np.repeat(np.cumsum(counts) - counts, counts)
+    stacked = np.zeros((len(counts), counts.max(), nv + 1))
+    stacked[body_of, slot, :nv], stacked[body_of, slot, nv] = kinematics.normal_jacobian, kinematics.normal_drift
+    # the left singular vectors of each block, from the eigenvectors of its Gram matrix (a small
+    # symmetric eigenproblem is cheaper than an SVD of the wide block); eigenvalues are s^2
+    rows = stacked[:, :, :nv]
+    eigenvalues, vectors = np.linalg.eigh(rows @ rows.transpose(0, 2, 1))
+    keep = eigenvalues > RANK_TOLERANCE**2 * eigenvalues[:, -1:]
+    combined = (vectors.transpose(0, 2, 1) @ stacked)[keep]  # body by body, independent rows
     return combined[:, :nv], combined[:, nv]
 
 
-def normal_motion_cost(points: list[ContactPoint], kinematics: ContactKinematics, weight: float, dt: float) -> SetPoint:
+def normal_motion_cost(kinematics: ContactKinematics, weight: float, dt: float) -> SetPoint:
     """Contact points neither sinking in nor lifting off within one control step, as a cost:
     weight |n'(J q_ddot + J_dot q_dot) + n'v / dt|^2."""
-    normals = normal_matrix(points)
-    J = normals @ kinematics.jacobian
-    return SetPoint(weight, J, np.zeros(len(points)), normals @ kinematics.drift, 0.0, 1.0 / dt)
+    return SetPoint(weight, kinematics.normal_jacobian, np.zeros(len(kinematics.normals)), kinematics.normal_drift, 0.0, 1.0 / dt)
 
 
-def tangential_motion_cost(points: list[ContactPoint], kinematics: ContactKinematics, weight: float, dt: float) -> SetPoint:
+def tangential_motion_cost(kinematics: ContactKinematics, weight: float, dt: float) -> SetPoint:
     """Soft no-slip: weight |T(J q_ddot + J_dot q_dot) + T v / dt|^2, T = I - n n' per point."""
-    normals = normal_matrix(points)
-    J = kinematics.jacobian - normals.T @ (normals @ kinematics.jacobian)
-    drift = kinematics.drift - normals.T @ (normals @ kinematics.drift)
+    normals = kinematics.normals
+    J = kinematics.jacobian - (normals[:, :, None] * kinematics.normal_jacobian[:, None, :]).reshape(kinematics.jacobian.shape)
+    drift = kinematics.drift - (normals * kinematics.normal_drift[:, None]).reshape(-1)
     return SetPoint(weight, J, np.zeros(len(drift)), drift, 0.0, 1.0 / dt)
