@@ -6,6 +6,9 @@ Everything is measured in one process on the same compiled model, medians of rep
   / the time the episode itself spent in mj_step (a collapsing robot has more contacts, so its
   physics costs more than the standing robot's; the second ratio is the controller's overhead);
 - controller cost per control step where a controller ran, and the QP's model/build/solve parts;
+  `adaptive_qp` once with each QP solver (ProxSuite, the default, and DAQP);
+- the reshaping QP's step (model, tasks, build, solve) on a 370 N forward push with `reshape`, with
+  each QP solver;
 - sweep throughput with 1 and 2 jobs on the same run list (warm workers), peak RSS per worker,
   and bytes stored per run;
 - whole commands, start-up included, each in a fresh interpreter: a sweep of shipped drops and
@@ -35,19 +38,37 @@ from joblib import Parallel, delayed
 from fallbench.episode import run_episode
 from fallbench.metrics import compute_metrics
 from fallbench.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
-from fallbench.scenario import ScenarioPoint
+from fallbench.dynamics.dense_qp import QP_SOLVERS
+from fallbench.scenario import Scenario, ScenarioPoint
 from fallbench.servo import ServoCommand, write_servo
 from fallbench.world import build_world, initial_state
 
 POLICIES = ("stiff", "oneshot", "zero", "adaptive_qp")
 FIXED = ("stiff", "oneshot", "zero")
+# the reshaping QP's bench fall: a front push; reshaping runs from fall detection to the first impact (~1.4 s)
+RESHAPE_PUSH = Scenario(name="bench_reshape_push", duration=1.45, pre_impact=["reshape"],
+                        push={"force": 370.0, "duration": 0.1, "start": 0.1, "direction": 0.0})
+
+
+
+def _suffix(solver: str) -> str:
+    """Figure-key suffix of a QP solver: none for the default (ProxSuite), `_daqp` for DAQP."""
+    return "" if solver == QP_SOLVERS[0] else f"_{solver}"
+
+
+def with_qp_solver(scenario: Scenario, solver: str) -> Scenario:
+    """The scenario with both QPs (adaptive_qp, reshape) on `solver`."""
+    params = {name: {**scenario.policy_params.get(name, {}), "solver": solver} for name in ("adaptive_qp", "reshape")}
+    return scenario.model_copy(update={"policy_params": {**scenario.policy_params, **params}})
+
 
 # target name -> (figure key, comparison, limit), from the issue that set them
 TARGETS: dict[str, tuple[str, str, float]] = {
     **{f"{p} episode / pure physics": (f"episode_ratio_{p}", "<=", 1.15) for p in FIXED},
-    "adaptive_qp episode / pure physics": ("episode_ratio_adaptive_qp", "<=", 2.0),
-    "adaptive_qp QP step median (ms)": ("qp_step_ms_median", "<=", 0.3),
-    "adaptive_qp QP step p99 (ms)": ("qp_step_ms_p99", "<=", 1.0),
+    **{f"adaptive_qp ({solver}) episode / pure physics": (f"episode_ratio_adaptive_qp{_suffix(solver)}", "<=", 2.0) for solver in QP_SOLVERS},
+    **{f"adaptive_qp ({solver}) QP step median (ms)": (f"qp_step_ms_median{_suffix(solver)}", "<=", 0.3) for solver in QP_SOLVERS},
+    **{f"adaptive_qp ({solver}) QP step p99 (ms)": (f"qp_step_ms_p99{_suffix(solver)}", "<=", 1.0) for solver in QP_SOLVERS},
+    **{f"reshape ({solver}) QP step median (ms)": (f"reshape_step_ms_median{_suffix(solver)}", "<=", 1.0) for solver in QP_SOLVERS},
     "2-job / 1-job sweep throughput": ("sweep_speedup", ">=", 1.8),
     "worker peak RSS (MB)": ("worker_peak_rss_mb", "<=", 500.0),
     "20-run sweep, 2 jobs vs 1, whole command": ("e2e_speedup_20", ">=", 1.6),
@@ -80,27 +101,44 @@ def pure_physics_s(point: ScenarioPoint, steps: int) -> float:
     return time.perf_counter() - started
 
 
-def policy_figures(point: ScenarioPoint, policy: str, pre_impact: str, repeats: int, physics_s: float) -> dict[str, float]:
+def policy_figures(scenario: Scenario, policy: str, pre_impact: str, repeats: int, physics_s: float,
+                   suffix: str = "") -> dict[str, float]:
+    """Episode and controller figures of one policy; keys end in `suffix` (a QP solver variant)."""
     walls, own, recordings = [], [], []
     for _ in range(repeats):
         started = time.perf_counter()
-        recording = run_episode(point.scenario, policy, pre_impact)
+        recording = run_episode(scenario, policy, pre_impact)
         walls.append(time.perf_counter() - started)
         own.append(recording.physics_s)
         recordings.append(recording)
     wall = statistics.median(walls)
     active = np.concatenate([r.controller_ms[r.controller_ms > 0] for r in recordings])
+    name = policy + suffix
     figures = {
-        f"episode_s_{policy}": wall,
-        f"episode_ratio_{policy}": wall / physics_s,
-        f"episode_ratio_own_physics_{policy}": wall / statistics.median(own),
-        f"controller_ms_median_{policy}": float(np.median(active)) if len(active) else 0.0,
-        f"controller_ms_p99_{policy}": float(np.percentile(active, 99)) if len(active) else 0.0,
+        f"episode_s_{name}": wall,
+        f"episode_ratio_{name}": wall / physics_s,
+        f"episode_ratio_own_physics_{name}": wall / statistics.median(own),
+        f"controller_ms_median_{name}": float(np.median(active)) if len(active) else 0.0,
+        f"controller_ms_p99_{name}": float(np.percentile(active, 99)) if len(active) else 0.0,
     }
     if policy == "adaptive_qp":
         stats = compute_metrics(recordings[-1])
         for key in ("qp_model_ms_median", "qp_build_ms_median", "qp_solve_ms_median", "qp_step_ms_median", "qp_step_ms_p99"):
-            figures[key] = float(stats[key])
+            figures[key + suffix] = float(stats[key])
+    return figures
+
+
+def reshape_figures(repeats: int) -> dict[str, float]:
+    """The reshaping QP's whole step (ms; median and p99 over the steps of `repeats` episodes) with each solver."""
+    figures = {}
+    for solver in QP_SOLVERS:
+        steps = []
+        for _ in range(repeats):
+            stats = compute_metrics(run_episode(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape"))
+            steps.append((stats["preimpact_qp_ms_median"], stats["preimpact_qp_ms_p99"], stats["preimpact_qp_steps"]))
+        median, p99, count = (statistics.median(column) for column in zip(*steps))
+        figures |= {f"reshape_step_ms_median{_suffix(solver)}": median, f"reshape_step_ms_p99{_suffix(solver)}": p99,
+                    f"reshape_steps{_suffix(solver)}": count}
     return figures
 
 
@@ -278,9 +316,15 @@ def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, 
     physics = _median_time(lambda: pure_physics_s(point, warm.steps), repeats)
     figures["physics_s"] = physics
     figures["physics_steps_per_s"] = warm.steps / physics
-    for policy in POLICIES:
+    for policy in FIXED:
         progress(f"episode: {policy}")
-        figures.update(policy_figures(point, policy, pre_impact, repeats if policy in FIXED else max(2, repeats // 2), physics))
+        figures.update(policy_figures(point.scenario, policy, pre_impact, repeats, physics))
+    for solver in QP_SOLVERS:
+        progress(f"episode: adaptive_qp ({solver})")
+        figures.update(policy_figures(with_qp_solver(point.scenario, solver), "adaptive_qp", pre_impact, max(2, repeats // 2), physics,
+                                      _suffix(solver)))
+    progress("reshaping QP step")
+    figures.update(reshape_figures(max(2, repeats // 2)))
     progress(f"sweep: {sweep_runs} runs with 1 and 2 jobs")
     figures.update(sweep_figures(sweep_specs(point, sweep_runs, pre_impact)))
     if store_runs:
@@ -300,13 +344,20 @@ def markdown(figures: dict[str, Any]) -> str:
              f"= {figures['physics_steps_per_s']:,.0f} steps/s.", "",
              "| policy | episode (ms) | / pure physics | / its own physics | controller per step median (ms) | p99 (ms) |",
              "|---|---|---|---|---|---|"]
-    for p in POLICIES:
-        lines.append(f"| {p} | {figures[f'episode_s_{p}'] * 1e3:.1f} | {figures[f'episode_ratio_{p}']:.2f} | "
+    rows = [(p, p) for p in FIXED] + [(f"adaptive_qp ({solver})", "adaptive_qp" + _suffix(solver)) for solver in QP_SOLVERS]
+    for label, p in rows:
+        lines.append(f"| {label} | {figures[f'episode_s_{p}'] * 1e3:.1f} | {figures[f'episode_ratio_{p}']:.2f} | "
                      f"{figures[f'episode_ratio_own_physics_{p}']:.2f} | {figures[f'controller_ms_median_{p}']:.3f} | "
                      f"{figures[f'controller_ms_p99_{p}']:.3f} |")
-    lines += ["", f"adaptive_qp per QP step (medians): model {figures['qp_model_ms_median']:.3f} ms, build "
-              f"{figures['qp_build_ms_median']:.3f} ms, solve {figures['qp_solve_ms_median']:.3f} ms; whole step median "
-              f"{figures['qp_step_ms_median']:.3f} ms, p99 {figures['qp_step_ms_p99']:.3f} ms.", "",
+    lines.append("")
+    for solver in QP_SOLVERS:
+        x = _suffix(solver)
+        lines += [f"adaptive_qp per QP step with {solver} (medians): model {figures['qp_model_ms_median' + x]:.3f} ms, build "
+                  f"{figures['qp_build_ms_median' + x]:.3f} ms, solve {figures['qp_solve_ms_median' + x]:.3f} ms; whole step median "
+                  f"{figures['qp_step_ms_median' + x]:.3f} ms, p99 {figures['qp_step_ms_p99' + x]:.3f} ms. Reshaping QP step "
+                  f"with {solver} (`{RESHAPE_PUSH.name}`, {figures['reshape_steps' + x]:.0f} steps): median "
+                  f"{figures['reshape_step_ms_median' + x]:.3f} ms, p99 {figures['reshape_step_ms_p99' + x]:.3f} ms.", ""]
+    lines += [
               f"Sweep of {figures['sweep_runs']} runs (4 policies): 1 job {figures['sweep_runs_per_s_1job']:.2f} runs/s, "
               f"2 jobs {figures['sweep_runs_per_s_2job']:.2f} runs/s, speedup {figures['sweep_speedup']:.2f}x "
               f"(worker start and model compile {figures['worker_warmup_s']:.1f} s, not counted). Peak RSS: workers "

@@ -207,7 +207,7 @@ def bench_command(
 
     Prints and writes a table: pure-physics steps/s; per policy, episode time / pure physics and /
     its own physics time, controller cost per control step; adaptive_qp's QP model, build and solve
-    times; runs/s with 1 and 2 jobs; peak RSS per worker; bytes stored per run; the targets.
+    times and the reshaping QP's step, with each QP solver; runs/s with 1 and 2 jobs; peak RSS per worker; bytes stored per run; the targets.
     """
     import json
 
