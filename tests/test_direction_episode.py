@@ -76,3 +76,17 @@ def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
     assert strategy is not None and strategy.plan is not None and strategy.plan.chosen.kind == "take_step"
     assert strategy.step_done is not None  # the foot landed
     assert strategy.tracking_switch is None or strategy.tracking_switch >= strategy.step_done
+
+
+def test_a_step_with_partial_inertia_shaping_lands() -> None:
+    """004 Fig. 8/10 (393 N forward, Take a Step + partial inertia shaping): the arms' motion carries
+    the descending foot 4.4 cm past its target onto the ground; the step must end there, or the
+    swing leg goes on pushing a loaded foot and the step is never complete."""
+    scenario = next(p.scenario for p in load_scenarios([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
+                    and p.scenario.policy_params["direction"]["mode"] == "take_step_pis")
+    rec = run_episode(scenario, "stiff", "direction")
+    strategy = rec.strategy
+    assert strategy is not None and strategy.plan is not None and strategy.plan.label.endswith("+pis")
+    assert strategy.step_done is not None and strategy.step_done < rec.impact_events[0].t
+    row = compute_metrics(rec)
+    assert row["step_completed"] is True and row["step_error"] <= strategy.config.step_tolerance
