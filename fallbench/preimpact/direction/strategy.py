@@ -24,10 +24,11 @@ from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
-from fallbench.preimpact.direction.inertia import damped_solve, desired_inertia, inertia_about, inertia_jacobian, to_vector
+from fallbench.preimpact.direction.inertia import (damped_solve, damped_solve_holding, desired_inertia, inertia_about, inertia_jacobian,
+                                                   to_vector)
 from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
-from fallbench.preimpact.direction.stepping import swing_velocity
+from fallbench.preimpact.direction.stepping import foot_to_foot_jacobian, swing_velocity
 from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
 from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.preimpact.direction.trigger import ControlTrigger
@@ -195,7 +196,10 @@ class DirectionStrategy(Strategy):
             plan.inertia_shaping, self.tracking_switch = "wbis", t
 
     def _shape(self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray) -> None:
-        """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP."""
+        """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP.
+        J_I holds the stance foot on the ground; with both soles down the shaping also keeps the other
+        one where it is (zero foot-to-foot twist, eq. 5's Jacobian): a grounded foot cannot follow a
+        swing of its leg, which would instead move, and fold, the body."""
         assert self.plan is not None and self.plan.desired is not None
         model, pdata, plan = self.P.model, self.P.data, self.plan
         supporting = self._supporting()
@@ -214,7 +218,11 @@ class DirectionStrategy(Strategy):
             placement = self.leg_columns[plan.chosen.swing]
             columns = self.upper_columns if plan.chosen.kind == "take_step" else np.setdiff1d(np.arange(model.nv - 6), placement)
         rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
-        qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
+        if swing is None:
+            held = foot_to_foot_jacobian(model, pdata, self.frames["right"], self.frames["left"], columns + 6)
+            qdot[columns] = damped_solve_holding(jacobian[:, columns], rhs, held, self.config.damping)
+        else:
+            qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
 
     def _control(self, t: float, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray) -> ServoCommand:
         assert self.plan is not None
