@@ -1,6 +1,6 @@
 """004's control pieces on TALOS's Pinocchio model: the inertia Jacobian about the CoP against
 finite differences with the stance foot held on the ground, and eq. 5 bringing the swing foot to
-its target."""
+its target, and the step's swing path ending when the foot is back on the ground."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import pytest
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.preimpact.direction.inertia import (desired_inertia, inertia_about, inertia_jacobian, to_vector)
 from fallbench.preimpact.direction.stepping import swing_velocity
+from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.scenario import Scenario
 from fallbench.world import build_world, initial_state
 
@@ -89,3 +90,16 @@ def test_eq5_brings_the_swing_foot_to_its_target(talos) -> None:
     pin.framesForwardKinematics(model, data, q)
     assert np.linalg.norm(data.oMf[swing].translation - target) < 1e-3
     assert np.linalg.norm(pin.log3(rotation @ data.oMf[swing].rotation.T)) < 1e-3
+
+
+def test_a_step_ends_when_its_foot_touches_down_even_beside_the_target() -> None:
+    """004 Sec. VI: a step ends when its foot meets the ground; on a falling robot it meets it a few
+    cm beside the target (4.4 cm on 004 Fig. 8's push) and, loaded, cannot be swung there again."""
+    path = SwingPath(np.array([0.0, -0.085, 0.11]), np.array([0.47, -0.36]), 0.08, 0.025)
+    assert not path.landed(np.array([0.0, -0.085, 0.11]), touching=True)  # not lifted yet: still standing
+    np.testing.assert_allclose(path.waypoint(np.array([0.0, -0.085, 0.11])), [0.0, -0.085, 0.19])  # straight up first
+    np.testing.assert_allclose(path.waypoint(np.array([0.0, -0.085, 0.16])), [0.47, -0.36, 0.19])  # then over
+    np.testing.assert_allclose(path.waypoint(np.array([0.46, -0.36, 0.16])), [0.47, -0.36, 0.11])  # then down
+    np.testing.assert_allclose(path.waypoint(np.array([0.51, -0.377, 0.13])), [0.47, -0.36, 0.11])  # and it stays on its way down
+    assert not path.landed(np.array([0.51, -0.377, 0.13]), touching=False)
+    assert path.landed(np.array([0.51, -0.377, 0.117]), touching=True)

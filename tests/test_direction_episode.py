@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import mujoco
+import numpy as np
 import pytest
 
 from fallbench.episode import Recording, run_episode
@@ -76,3 +78,41 @@ def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
     assert strategy is not None and strategy.plan is not None and strategy.plan.chosen.kind == "take_step"
     assert strategy.step_done is not None  # the foot landed
     assert strategy.tracking_switch is None or strategy.tracking_switch >= strategy.step_done
+
+
+def test_a_step_with_partial_inertia_shaping_lands() -> None:
+    """004 Fig. 8/10 (393 N forward, Take a Step + partial inertia shaping): the arms' motion carries
+    the descending foot 4.4 cm past its target onto the ground; the step must end there, or the
+    swing leg goes on pushing a loaded foot and the step is never complete."""
+    scenario = next(p.scenario for p in load_scenarios([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
+                    and p.scenario.policy_params["direction"]["mode"] == "take_step_pis")
+    rec = run_episode(scenario, "stiff", "direction")
+    strategy = rec.strategy
+    assert strategy is not None and strategy.plan is not None and strategy.plan.label.endswith("+pis")
+    assert strategy.step_done is not None and strategy.step_done < rec.impact_events[0].t
+    row = compute_metrics(rec)
+    assert row["step_completed"] is True and row["step_error"] <= strategy.config.step_tolerance
+
+
+def test_whole_body_shaping_keeps_both_grounded_feet_where_they_are() -> None:
+    """004 Fig. 10's push with whole-body inertia shaping from double support (No Action): J_I holds
+    only the stance foot, so the shaping must not also swing the other grounded leg; it scissored the
+    hips by +-1.5 rad, the feet could not follow and the body folded (CoM 0.88 -> 0.70 m)."""
+    scenario = next(p.scenario for p in load_scenarios([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
+                    and p.scenario.policy_params["direction"]["mode"] == "whole_body_is")
+    rec = run_episode(scenario.model_copy(update={"duration": 0.6}), "stiff", "direction")
+    strategy = rec.strategy
+    assert strategy is not None and strategy.plan is not None and strategy.plan.label == "no_action+wbis"
+    model, data = rec.world.model, mujoco.MjData(rec.world.model)
+    feet = [model.body(body).id for body in rec.world.robot.feet.values()]
+
+    def feet_apart(sample: int) -> np.ndarray:
+        """The feet's relative position (m) with the commanded joint angles."""
+        data.qpos[:] = rec.qpos[sample]
+        data.qpos[rec.world.qpos_adr] = rec.q_ref[sample]
+        mujoco.mj_kinematics(model, data)
+        return data.xpos[feet[0]] - data.xpos[feet[1]]
+
+    start = int(np.searchsorted(rec.time, strategy.trigger.time))
+    assert np.abs(rec.q_ref[-1] - rec.q_ref[start]).max() > 0.3  # rad: the shaping did move joints
+    np.testing.assert_allclose(feet_apart(len(rec.time) - 1), feet_apart(start), atol=0.01)

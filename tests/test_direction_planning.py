@@ -1,6 +1,6 @@
 """004's planning on hand-made layouts: safe regions (eq. 1, merged overlapping cones, wrapped
 angles), scores (eqs. 2-4), the control trigger on straight and bent capture-point paths, and the
-pendulum tipping about the support polygon's edge or vertex."""
+pendulum tipping about the support polygon's edge or vertex, and a fall that stops on its polygon."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from fallbench.events import support_polygon
+from fallbench.preimpact.direction.candidates import FallState, predict
 from fallbench.preimpact.direction.geometry import Circle, safe_regions
 from fallbench.preimpact.direction.pendulum import rollout
 from fallbench.preimpact.direction.scoring import desired_direction, score
@@ -120,6 +121,20 @@ def test_pendulum_tips_normal_to_the_edge_and_along_the_radius_at_a_vertex() -> 
     assert rod == pytest.approx(np.full(len(rod), rod[0]), rel=1e-4)  # a rigid rod
     behind = rollout(corner.point[None], np.zeros((1, 2)), np.array([[0.0, 0.0, 0.9]]), np.array([[0.05, 0.05, 0.0]]), 0.0, 0.3)
     assert math.degrees(behind.direction[0]) == pytest.approx(225.0, abs=1e-6)  # too slow to pass over the corner: falls back
+
+
+def test_a_pendulum_falling_back_over_its_polygon_is_a_fall_that_stops() -> None:
+    """A step lands 0.25 m ahead of the CoM, the capture point 1 cm past the new front edge: the
+    rigid pendulum, too slow to rise over that edge, swings back over the polygon (it predicted a
+    backward fall, 176 deg, for a step after 550 N forward, which then fell forward at 35 deg). A
+    body standing on the polygon cannot tip into its own soles: the fall stops there."""
+    feet = support_polygon(np.array([[-0.114, -0.15], [0.096, -0.15], [0.546, 0.02], [0.546, 0.15], [0.336, 0.15], [-0.114, -0.02]]))
+    com, velocity = np.array([[0.307, 0.022, 0.855]]), np.array([[0.866, 0.117, -0.219]])  # measured at that landing
+    state = FallState(com[0], np.zeros(3), 0.0, 0.3)
+    roll, stops = predict([feet], com, velocity, state)
+    assert roll.end[0, 0] < 0.546 and bool(stops[0])  # capture point 1.6 cm past the edge, yet the pendulum falls back
+    roll, stops = predict([feet], com, 1.5 * velocity, state)  # fast enough: over the front edge, a forward fall
+    assert math.degrees(roll.direction[0]) == pytest.approx(0.0, abs=1e-6) and not bool(stops[0])
 
 
 def test_layout_yaw_turns_the_obstacles_about_the_robot(tmp_path) -> None:

@@ -38,7 +38,7 @@ class Candidate:
     direction: float = math.nan  # rad, predicted theta_f
     fall_time: float = math.nan  # s to touchdown
     score: float = math.inf
-    capturing: bool = False  # the capture point lies inside the new polygon (the fall would stop)
+    capturing: bool = False  # the fall would stop on the new polygon (capture point inside, or the pendulum falls back onto it)
 
     @property
     def name(self) -> str:
@@ -54,15 +54,21 @@ class FallState:
 
 
 def predict(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, state: FallState) -> tuple[Rollout, np.ndarray]:
-    """Pendulum rollouts about each polygon's pivot; and whether the capture point is inside it."""
-    pivots, edges, inside = [], [], []
+    """Pendulum rollouts about each polygon's pivot; and whether the fall stops on the polygon: the
+    capture point is inside it, or the pendulum swings back across its pivot, over the polygon (a
+    rigid body standing on a polygon cannot tip about an edge into its own sole: it settles on it;
+    a CoM landing behind the front edge, too slow to rise over it, does this)."""
+    pivots, edges, inside, outward = [], [], [], []
     for polygon, com, velocity in zip(polygons, coms, velocities):
         xi = capture_point(com, velocity)
         pivot = nearest_pivot(polygon, xi)
         pivots.append(pivot.point)
         edges.append(np.zeros(2) if pivot.edge is None else pivot.edge)
         inside.append(contains(polygon, xi))
-    return rollout(np.array(pivots), np.array(edges), coms, velocities, state.floor_z, state.touchdown_height), np.array(inside)
+        outward.append(xi[:2] - pivot.point)  # from the boundary toward the capture point outside it
+    roll = rollout(np.array(pivots), np.array(edges), coms, velocities, state.floor_z, state.touchdown_height)
+    back = np.einsum("ij,ij->i", roll.end[:, :2] - np.array(pivots), np.array(outward)) < 0.0
+    return roll, np.array(inside) | back
 
 
 def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:

@@ -30,7 +30,7 @@ class DirectionConfig:
     step_gain: float = 20.0  # 1/s, eq. 5
     inertia_gain: float = 10.0  # 1/s, eqs. 6 and 8
     damping: float = 1e-3  # damped pseudo-inverses
-    step_tolerance: float = 0.05  # m: the foot descends, and the step completes, within half of this from its target
+    step_tolerance: float = 0.05  # m: the foot starts down within half of this from its target; a step is complete when it lands within this
     allow_capture: bool = False  # keep steps whose polygon holds the capture point (004's falls are certain)
     tracking: bool = True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
     tracking_period: float = 0.02  # s between tracking predictions

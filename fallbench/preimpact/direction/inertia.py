@@ -96,3 +96,10 @@ def damped_solve(jacobian: np.ndarray, target: np.ndarray, damping: float) -> np
     """J^# target with the damped pseudo-inverse J^T (J J^T + damping^2 E)^-1."""
     gram = jacobian @ jacobian.T + damping**2 * np.eye(len(jacobian))
     return jacobian.T @ np.linalg.solve(gram, target)
+
+
+def damped_solve_holding(jacobian: np.ndarray, target: np.ndarray, held: np.ndarray, damping: float) -> np.ndarray:
+    """J^# target among the velocities that keep `held` (k, n) still: x = N (J N)^# target with N
+    the projector onto held's null space (both feet on the ground: their relative twist stays zero)."""
+    null = np.eye(held.shape[1]) - np.linalg.pinv(held, rcond=1e-8) @ held
+    return null @ damped_solve(jacobian @ null, target, damping)

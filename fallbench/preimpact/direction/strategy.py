@@ -24,11 +24,13 @@ from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
-from fallbench.preimpact.direction.inertia import damped_solve, desired_inertia, inertia_about, inertia_jacobian, to_vector
+from fallbench.preimpact.direction.inertia import (damped_solve, damped_solve_holding, desired_inertia, inertia_about, inertia_jacobian,
+                                                   to_vector)
 from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
-from fallbench.preimpact.direction.stepping import swing_velocity
+from fallbench.preimpact.direction.stepping import foot_to_foot_jacobian, swing_velocity
 from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
+from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.preimpact.direction.trigger import ControlTrigger
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
@@ -36,9 +38,6 @@ from fallbench.world import World
 
 if TYPE_CHECKING:
     from fallbench.episode import Recording
-
-LANDED = 0.015  # m: a foot frame this close to its standing height has landed (the ground tilts under a falling robot)
-
 
 def _yaw_only(rotation: np.ndarray) -> np.ndarray:
     yaw = math.atan2(rotation[1, 0], rotation[0, 0])
@@ -75,8 +74,9 @@ class DirectionStrategy(Strategy):
         self.com_height = math.nan
         self.standing: dict[str, pin.SE3] = {}  # foot frames at the fall trigger, soles flat
         self.sole_centres: dict[str, np.ndarray] = {}  # m, (2,) at the control trigger
-        self.step_done: float | None = None
-        self.lifted = False  # the swing foot has left the ground
+        self.step_done: float | None = None  # s, when the step's foot touched down
+        self.step_error = math.nan  # m, its sole centre from the target then
+        self.swing_path: SwingPath | None = None  # Take a Step's, from the first control step
         self.tracked: float | None = None  # s, last tracking prediction
         self.tracking_switch = math.nan  # s, when tracking started whole-body inertia shaping
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
@@ -135,8 +135,14 @@ class DirectionStrategy(Strategy):
 
     # ------------------------------------------------------------------ control
 
-    def _swing(self, t: float, qdot: np.ndarray) -> None:
-        """Eq. 5 toward the lifted pose (Lift a Leg) or the step target (Take a Step)."""
+    def _touching(self, data: mujoco.MjData, side: str) -> bool:
+        """Whether a foot's contact sensors see the ground (or an object)."""
+        world, body = self.world, self.world.model.body(self.feet[side])
+        names = (f"contact:feet:{body.name}", f"contact:feet:{world.model.body(body.parentid[0]).name}")
+        return any(world.sensor(data.sensordata, name)[0] > 0 for name in names if name in world.sensors)
+
+    def _swing(self, t: float, data: mujoco.MjData, qdot: np.ndarray) -> None:
+        """Eq. 5 toward the lifted pose (Lift a Leg) or along the step's swing path (Take a Step)."""
         assert self.plan is not None
         chosen, config, model, pdata = self.plan.chosen, self.config, self.P.model, self.P.data
         swing = chosen.swing
@@ -146,21 +152,16 @@ class DirectionStrategy(Strategy):
         position = pdata.oMf[frame].translation
         if chosen.kind == "lift_leg":
             target = home.translation + np.array([0.0, 0.0, config.lift_height])
-            self.lifted = self.lifted or position[2] >= home.translation[2] + 0.5 * config.lift_height
         else:
             assert chosen.target is not None
-            # the sole centre moves to the target: the frame moves by the same horizontal offset
-            target_xy = home.translation[:2] + chosen.target - self.sole_centres[swing]
-            # lift straight up first (a loaded foot pushed sideways would move the body instead), then
-            # over to the target at the lift height, then down onto it
-            self.lifted = self.lifted or position[2] >= home.translation[2] + 0.5 * config.lift_height
-            far = float(np.linalg.norm(target_xy - position[:2])) > 0.5 * config.step_tolerance
-            if not self.lifted:
-                target_xy = position[:2]
-            target = np.array([*target_xy, home.translation[2] + (config.lift_height if far else 0.0)])
-            if not far and position[2] <= home.translation[2] + LANDED:
+            if self.swing_path is None:  # the sole centre moves to the target: the frame moves by the same horizontal offset
+                self.swing_path = SwingPath(home.translation.copy(), home.translation[:2] + chosen.target - self.sole_centres[swing],
+                                            config.lift_height, 0.5 * config.step_tolerance)
+            if self.swing_path.landed(position, self._touching(data, swing)):
                 self.step_done = t
+                self.step_error = float(np.linalg.norm(position[:2] - self.swing_path.target_xy))
                 return
+            target = self.swing_path.waypoint(position)
         columns = self.leg_columns[swing]
         qdot[columns] = swing_velocity(model, pdata, frame, self.frames[stance], columns + 6, target, _yaw_only(home.rotation),
                                        config.step_gain, config.foot_speed, config.damping)
@@ -195,7 +196,10 @@ class DirectionStrategy(Strategy):
             plan.inertia_shaping, self.tracking_switch = "wbis", t
 
     def _shape(self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray) -> None:
-        """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP."""
+        """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP.
+        J_I holds the stance foot on the ground; with both soles down the shaping also keeps the other
+        one where it is (zero foot-to-foot twist, eq. 5's Jacobian): a grounded foot cannot follow a
+        swing of its leg, which would instead move, and fold, the body."""
         assert self.plan is not None and self.plan.desired is not None
         model, pdata, plan = self.P.model, self.P.data, self.plan
         supporting = self._supporting()
@@ -214,13 +218,17 @@ class DirectionStrategy(Strategy):
             placement = self.leg_columns[plan.chosen.swing]
             columns = self.upper_columns if plan.chosen.kind == "take_step" else np.setdiff1d(np.arange(model.nv - 6), placement)
         rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
-        qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
+        if swing is None:
+            held = foot_to_foot_jacobian(model, pdata, self.frames["right"], self.frames["left"], columns + 6)
+            qdot[columns] = damped_solve_holding(jacobian[:, columns], rhs, held, self.config.damping)
+        else:
+            qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
 
     def _control(self, t: float, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray) -> ServoCommand:
         assert self.plan is not None
         qdot = np.zeros(self.P.model.nv - 6)
         if self.plan.chosen.swing is not None and self.step_done is None:
-            self._swing(t, qdot)
+            self._swing(t, data, qdot)
             self._within_speed_limits(qdot)
         if self.plan.inertia_shaping and self.plan.desired is not None:
             placed = qdot.copy()
@@ -260,7 +268,9 @@ class DirectionStrategy(Strategy):
         }
         impacts = [e.t for e in recording.impact_events]
         if plan and plan.chosen.kind == "take_step":
-            row["step_completed"] = self.step_done is not None and (not impacts or self.step_done <= impacts[0])
+            row["step_completed"] = (self.step_done is not None and (not impacts or self.step_done <= impacts[0])
+                                     and self.step_error <= self.config.step_tolerance)
+            row["step_error"] = self.step_error
             assert plan.chosen.target is not None
             row["step_target_x"], row["step_target_y"] = (float(x) for x in plan.chosen.target)
         if plan:
