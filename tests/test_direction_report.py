@@ -39,3 +39,17 @@ def test_claims_give_n_of_m() -> None:
     assert wbis.verdict == "holds" and wbis["N/M"].startswith("1/1")
     error = verdicts.loc["prediction error median <= 15 deg (inverted-pendulum prediction, Sec. VI)"]
     assert error.verdict == "holds" and error["N/M"].startswith("3/4")
+
+
+def test_claims_separate_steering_from_contact() -> None:
+    """A direction fall toward a safe region that still touches an object (point b) counts as steered
+    but not clear."""
+    runs = _runs()
+    runs.loc[(runs.point == "b") & (runs.pre_impact == "direction"), "actual_in_safe_region"] = True
+    pairs = paired(runs)
+    assert hit_table(pairs).iloc[0]["direction falls toward a safe region"] == "4/4 (100 %)"
+    verdicts = claims(runs, pairs).set_index("claim (004)")
+    steered = verdicts.loc[[c for c in verdicts.index if c.startswith("direction turns the falls")][0]]
+    assert steered.verdict == "holds" and steered["N/M"].startswith("3/3")
+    clear = verdicts.loc[[c for c in verdicts.index if c.startswith("a direction fall toward a safe region")][0]]
+    assert clear.verdict == "does not hold" and clear["N/M"].startswith("3/4")
