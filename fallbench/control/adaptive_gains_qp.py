@@ -115,6 +115,7 @@ def acceleration_map(P: PinocchioModel, terms: ModelTerms, JtG: np.ndarray, sele
                      e_dot: np.ndarray, held_torque: np.ndarray) -> AccelerationMap:
     """q_ddot = M (lambda, K_S, B_S) + m from eq. 10 with the non-selected torques known (eq. 15)."""
     H_inv, motors = terms.H_inv, P.actuated_v[selected]
+    assert H_inv is not None, "model_terms(..., inverse=True)"
     n_l, n_s = JtG.shape[1], len(selected)
     M = np.empty((len(H_inv), n_l + 2 * n_s))
     M[:, :n_l] = H_inv @ JtG

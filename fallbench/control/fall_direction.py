@@ -7,6 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fallbench.vectors import cross
+
+UP = np.array([0.0, 0.0, 1.0])
 MIN_TRAVEL = 1e-3  # m of CoM travel below which eq. 2 is undefined; the torso's lean stands in
 
 
@@ -34,7 +37,7 @@ class FallDirection:
 def heading(torso_rotation: np.ndarray) -> np.ndarray:
     """The torso's forward direction in the ground plane, from its lateral (y) axis so that it
     stays defined when the torso pitches past horizontal in a front or back fall."""
-    forward = horizontal_unit(np.cross(torso_rotation[:, 1], [0.0, 0.0, 1.0]))
+    forward = horizontal_unit(cross(torso_rotation[:, 1], UP))
     return forward if forward is not None else np.array([1.0, 0.0, 0.0])
 
 
@@ -42,7 +45,7 @@ def fall_class(direction: np.ndarray, torso_rotation: np.ndarray) -> str:
     """`front`, `back`, `left` or `right`: the fall direction against the torso's heading
     (front within 45 deg of forward, back within 45 deg of backward, else a side fall)."""
     forward = heading(torso_rotation)
-    left = np.cross([0.0, 0.0, 1.0], forward)
+    left = cross(UP, forward)
     angle = math.degrees(math.atan2(float(direction @ left), float(direction @ forward)))
     if abs(angle) <= 45.0:
         return "front"

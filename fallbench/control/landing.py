@@ -17,6 +17,7 @@ import numpy as np
 
 from fallbench.control.reach import ReachPolyhedron
 from fallbench.control.surfaces import Surface
+from fallbench.vectors import cross
 
 LOWEST_ANGLE = -math.pi / 6  # rad below the pivot's horizontal the shoulder may still travel
 UP = np.array([0.0, 0.0, 1.0])
@@ -60,7 +61,7 @@ def landing_candidates(pivot: np.ndarray, shoulder: np.ndarray, direction: np.nd
     relative = shoulder - pivot
     radius = float(np.linalg.norm(relative))
     now = math.atan2(float(relative @ UP), float(relative @ direction))
-    tilt_axis = np.cross(UP, direction)
+    tilt_axis = cross(UP, direction)
     candidates = []
     for surface in surfaces:
         ahead = [phi for phi in circle_plane_crossings(pivot, radius, direction, surface) if LOWEST_ANGLE <= phi <= now]

@@ -42,6 +42,7 @@ from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.support import body_box_corners, world_corners
 from fallbench.world import World
+from fallbench.vectors import cross
 
 UP = np.array([0.0, 0.0, 1.0])
 PIVOTS = ("contacts", "knees", "knees_and_buttocks")
@@ -117,6 +118,7 @@ class ReshapeController:
         self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
         leg_joints = [j for root in (leg[0] for leg in robot.legs.values()) for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
+        self.legs = np.isin(self.P.actuated_v, self.leg_v)  # actuators of the legs
         self.qp = make_solver(self.cfg.solver, self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
         self.direction: FallDirection | None = None
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
@@ -134,7 +136,7 @@ class ReshapeController:
     def _landing_tasks(self, t: float, direction: np.ndarray, facing: str, torso_rotation: np.ndarray,
                        stick: tuple[np.ndarray, float]) -> list[SetPoint]:
         model, pdata = self.P.model, self.P.data
-        lateral = np.cross(UP, direction)
+        lateral = cross(UP, direction)
         support, drop = stick
         pairs, tasks = [], []
         for side, arm in self.world.robot.arms.items():
@@ -161,12 +163,12 @@ class ReshapeController:
         world, cfg, model = self.world, self.cfg, self.P.model
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
-        terms = model_terms(self.P, q, v, points, inertia=True)
+        terms = model_terms(self.P, q, v, points, inertia=True, inverse=False)
         torso_rotation = world.robot.torso_frame(self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation)
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
         facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"
-        lateral_target = np.cross(UP, direction) * (1.0 if facing == "front" else -1.0)
+        lateral_target = cross(UP, direction) * (1.0 if facing == "front" else -1.0)
         orientation = VectorOrientationTask(world.robot.torso_body, world.robot.torso_axis("left"), lateral_target)
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
@@ -179,11 +181,10 @@ class ReshapeController:
             error, J, drift = RelativeDistanceTask(*floor).compute(model, self.P.data)
             tasks.append(SetPoint(cfg.w_knees_level, J, error, drift, cfg.task_kp, cfg.task_kv))
         q_joints = q[7:][self.P.actuated_v - 6]
-        legs = np.isin(self.P.actuated_v, self.leg_v)
         posture = self.postures["side" if self.classes[0] in ("left", "right") else "front/back"]
-        for rows, weight in ((~legs, cfg.w_posture), (legs, cfg.w_leg_posture)):
-            tasks.append(SetPoint(weight, posture.jacobian()[rows], posture.error(q_joints)[rows],
-                                  posture.drift()[rows], cfg.task_kp, cfg.task_kv))
+        error = posture.error(q_joints)
+        for rows, weight in ((~self.legs, cfg.w_posture), (self.legs, cfg.w_leg_posture)):  # a selection: velocity rows
+            tasks.append(SetPoint(weight, None, error[rows], posture.drift()[rows], cfg.task_kp, cfg.task_kv, rows=posture.joint_v[rows]))
         problem = build_reshape_problem(self.P, terms, points, tasks, world.torque_limit, world.joint_range,
                                         self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd, cfg.w_contact)
         status, solved, accelerations = solve_reshape(self.qp, problem)

@@ -18,7 +18,7 @@ class ModelTerms:
     q: np.ndarray
     v: np.ndarray
     H: np.ndarray | None  # inertia matrix (with rotor armature), (nv, nv); None unless asked for
-    H_inv: np.ndarray  # the inverse inertia matrix
+    H_inv: np.ndarray | None  # the inverse inertia matrix; None unless asked for
     C: np.ndarray  # gravity, Coriolis and centrifugal terms, N or Nm
     contacts: ContactKinematics
     com: np.ndarray  # m
@@ -40,13 +40,14 @@ def _symmetric(upper: np.ndarray) -> np.ndarray:
     return full
 
 
-def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint], inertia: bool = False) -> ModelTerms:
-    """All terms at (q, v), the inertia matrix itself only if `inertia`; afterwards P.data holds the
+def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint], inertia: bool = False,
+                inverse: bool = True) -> ModelTerms:
+    """All terms at (q, v), the inertia matrix itself only if `inertia`, its inverse only if `inverse`; afterwards P.data holds the
     kinematics every task's `compute` needs (forwardKinematics(q, v, 0), computeJointJacobians(q),
     updateFramePlacements)."""
     model, data = P.model, P.data
     H = _symmetric(pin.crba(model, data, q)) if inertia else None
-    H_inv = _symmetric(pin.computeMinverse(model, data, q))
+    H_inv = _symmetric(pin.computeMinverse(model, data, q)) if inverse else None
     C = pin.nonLinearEffects(model, data, q, v).copy()
     pin.computeJointJacobians(model, data, q)
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from fallbench.vectors import cross
+
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
@@ -33,5 +35,5 @@ class VectorOrientationTask:
         omega = pin.getFrameVelocity(model, data, frame, LWA).angular
         alpha = pin.getFrameClassicalAcceleration(model, data, frame, LWA).angular
         jacobian = -pin.skew(u) @ J_angular
-        drift = np.cross(alpha, u) + np.cross(omega, np.cross(omega, u))
+        drift = cross(alpha, u) + cross(omega, cross(omega, u))
         return u - self.target, jacobian, drift

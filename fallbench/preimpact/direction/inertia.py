@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from fallbench.vectors import cross
+
 UNIQUE = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -39,7 +41,7 @@ def inertia_about(model: pin.Model, data: pin.Data, q: np.ndarray, v: np.ndarray
     mass, com = data.Ig.mass, data.com[0]
     offset = com - point
     inertia = data.Ig.inertia + mass * point_mass_term(offset)
-    momentum = data.hg.angular + np.cross(offset, data.hg.linear)
+    momentum = data.hg.angular + cross(offset, data.hg.linear)
     return inertia, momentum
 
 
@@ -70,7 +72,7 @@ def inertia_jacobian(model: pin.Model, data: pin.Data, point: np.ndarray, anchor
         linear, angular = twist[:3], twist[3:]
         mass, com, inertia = _moving_part(data, joint, anchored)
         offset = com - point
-        velocity = linear + np.cross(angular, com)
+        velocity = linear + cross(angular, com)
         turn = _skew(angular) @ inertia - inertia @ _skew(angular)
         shift = mass * (2.0 * float(offset @ velocity) * np.eye(3) - np.outer(velocity, offset) - np.outer(offset, velocity))
         columns[:, index - 6] = to_vector(turn + shift)
@@ -83,7 +85,7 @@ def desired_inertia(inertia: np.ndarray, momentum: np.ndarray, direction: float)
     horizontal rate omega_h of omega = (I^P)^-1 L_P."""
     omega = np.linalg.solve(inertia, momentum)
     toward = np.array([np.cos(direction), np.sin(direction), 0.0])
-    w = float(np.linalg.norm(omega[:2])) * np.cross(UP, toward)
+    w = float(np.linalg.norm(omega[:2])) * cross(UP, toward)
     norm2 = float(w @ w)
     if norm2 < 1e-12:
         return inertia.copy()
