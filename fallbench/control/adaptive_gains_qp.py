@@ -121,9 +121,9 @@ def acceleration_map(P: PinocchioModel, terms: ModelTerms, JtG: np.ndarray, sele
     M[:, :n_l] = H_inv @ JtG
     np.multiply(H_inv[:, motors], e[selected], out=M[:, n_l : n_l + n_s])
     np.multiply(H_inv[:, motors], e_dot[selected], out=M[:, n_l + n_s :])
-    held = np.zeros(len(H_inv))
+    held = np.zeros(len(H_inv))  # generalized forces of the non-selected motors' known torques
     held[P.actuated_v] = held_torque
-    held[motors] = 0.0
+    held[motors] = 0.0  # the selected motors' torques are the QP's
     m = H_inv @ (held - terms.C)
     return AccelerationMap(M, m)
 
