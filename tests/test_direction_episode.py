@@ -12,6 +12,7 @@ import pytest
 
 from fallbench.episode import Recording, run_episode
 from fallbench.metrics import compute_metrics
+from fallbench.preimpact.direction.outcome import com_path
 from fallbench.scenario import Scenario, load_scenarios
 
 RING4 = [
@@ -60,13 +61,28 @@ def test_none_gets_the_obstacle_metrics_too() -> None:
     row = compute_metrics(run_episode(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
     assert "direction_strategy" not in row and row["n_safe_regions"] == 2
     assert 0.0 <= row["actual_fall_direction_deg"] < 360.0
-    assert row["actual_fall_touchdown"] is False  # 0.5 s after the push the CoM is still high: end of run used
+    assert row["actual_fall_end"] == "run_end"  # 0.5 s after the push the CoM is still high, no object touched
 
 
 def test_actual_direction_says_whether_the_com_touched_down() -> None:
     """004 Fig. 6's backward fall into free space reaches the touchdown height; its direction is backward."""
     row = compute_metrics(run_episode(_shipped("dir_fig6"), "stiff", "none"))
-    assert row["actual_fall_touchdown"] is True and row["actual_fall_direction_deg"] == pytest.approx(180.0, abs=5.0)
+    assert row["actual_fall_end"] == "touchdown" and row["actual_fall_direction_deg"] == pytest.approx(180.0, abs=5.0)
+
+
+def test_actual_direction_stops_at_the_first_object_contact() -> None:
+    """004 Fig. 1's forward fall without control hits the table before the CoM is down: its direction
+    is read at that contact (the table, not the fall, sets where the robot ends)."""
+    rec = run_episode(_shipped("dir_fig1"), "stiff", "none")
+    row = compute_metrics(rec)
+    assert row["obstacle_hit"] and row["actual_fall_end"] == "object"
+    touching = np.any([rec.world.sensor(rec.sensordata, name)[:, 0] > 0 for name in rec.world.obstacle_sensors], axis=0)
+    every = round(rec.scenario.control_dt / rec.scenario.physics_dt)
+    path = com_path(rec, every)
+    start = int(np.searchsorted(rec.time[::every], rec.fall_time))
+    contact = int(np.flatnonzero(touching)[0]) // every
+    delta = path[contact, :2] - path[start, :2]
+    assert row["actual_fall_direction_deg"] == pytest.approx(math.degrees(math.atan2(delta[1], delta[0])) % 360.0, abs=1e-9)
 
 
 def test_whole_body_shaping_waits_for_the_step_to_land() -> None:

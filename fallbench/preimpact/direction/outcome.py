@@ -1,7 +1,8 @@
 """How a fall among objects ended, for every run with obstacles (so that `none` compares with
 `direction`): whether and how close the robot came to an object, and the actual fall direction
 against the safe regions of 004 (measured from the CoM's ground projection at the control trigger,
-or at the fall trigger for strategies without one, to that at touchdown)."""
+or at the fall trigger for strategies without one, to that at touchdown, or at the first contact with
+an object if that comes first: after it the object, not the fall, sets the direction)."""
 
 from __future__ import annotations
 
@@ -58,25 +59,37 @@ def obstacle_metrics(rec: "Recording", origin_time: float | None) -> dict[str, A
     impact = rec.impact_events[0].t if rec.impact_events else rec.time[-1]
     row["obstacle_clearance_at_impact"] = clearance(rec, min(int(np.searchsorted(rec.time, impact)), len(rec.time) - 1))
     nan = {"actual_fall_direction_deg": math.nan, "actual_in_safe_region": False, "actual_score": math.nan, "n_safe_regions": -1,
-           "actual_fall_touchdown": False}
+           "actual_fall_end": ""}
     if origin_time is None or not math.isfinite(origin_time):
         return row | nan
     every = max(round(scenario.control_dt / scenario.physics_dt), 1)
     path = com_path(rec, every)
     start = min(int(np.searchsorted(rec.time[::every], origin_time)), len(path) - 1)
-    low = np.flatnonzero(path[start:, 2] <= config.touchdown_fraction * path[0, 2])
-    end = start + (int(low[0]) if len(low) else len(path) - 1 - start)
+    touched = np.flatnonzero(np.any(found, axis=0)) // every if found else np.zeros(0, dtype=int)  # samples at or before a contact
+    touched = touched[touched > start]
+    end, row["actual_fall_end"] = _fall_end(path, start, int(touched[0]) if len(touched) else None,
+                                            config.touchdown_fraction * path[0, 2])
     origin = path[start, :2]
     delta = path[end, :2] - origin
     regions = safe_regions(grown_circles(scenario.obstacles, origin, config.robot_radius,
                                          config.consider_factor * config.robot_height), origin)
     direction = math.atan2(delta[1], delta[0]) % (2 * math.pi)
     row["actual_fall_direction_deg"] = math.degrees(direction)
-    row["actual_fall_touchdown"] = bool(len(low))  # False: the CoM never got that low (e.g. leaning on an object); end of run used
     row["actual_in_safe_region"] = any(r.contains(direction) for r in regions)
     row["actual_score"] = score(direction, regions, config.w1, config.w2)
     row["n_safe_regions"] = len(regions)
     return row
+
+
+def _fall_end(path: np.ndarray, start: int, first_touch: int | None, touchdown_height: float) -> tuple[int, str]:
+    """(sample, why) where the fall direction is read: the CoM down to `touchdown_height` ("touchdown"),
+    or the first contact with an object (sample `first_touch`) if earlier ("object": a fall deflected
+    by an object is not a fall in the direction it ends in), else the run's last sample ("run_end",
+    e.g. the robot still upright)."""
+    low = np.flatnonzero(path[start:, 2] <= touchdown_height)
+    ends = [(start + int(low[0]), "touchdown")] if len(low) else []
+    ends += [(first_touch, "object")] if first_touch is not None else []
+    return min(ends, key=lambda end: end[0]) if ends else (len(path) - 1, "run_end")
 
 
 def direction_error_deg(predicted_deg: float, actual_deg: float) -> float:
