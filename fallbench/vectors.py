@@ -1,9 +1,12 @@
-"""3-vector helpers for the control loops: NumPy's general `np.cross` costs ~15 us on one pair of
-3-vectors (axis handling), this one ~1 us, with the same products and differences (the same bits)."""
+"""3-vector helpers for the control loops: the world's vertical, and a cross product (NumPy's general
+`np.cross` costs ~15 us on one pair of 3-vectors, axis handling; this one ~1 us, with the same
+products and differences: the same bits)."""
 
 from __future__ import annotations
 
 import numpy as np
+
+UP = np.array([0.0, 0.0, 1.0])  # world z, against gravity
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -7,9 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallbench.vectors import cross
+from fallbench.vectors import UP, cross
 
-UP = np.array([0.0, 0.0, 1.0])
 MIN_TRAVEL = 1e-3  # m of CoM travel below which eq. 2 is undefined; the torso's lean stands in
 
 

@@ -17,10 +17,9 @@ import numpy as np
 
 from fallbench.control.reach import ReachPolyhedron
 from fallbench.control.surfaces import Surface
-from fallbench.vectors import cross
+from fallbench.vectors import UP, cross
 
 LOWEST_ANGLE = -math.pi / 6  # rad below the pivot's horizontal the shoulder may still travel
-UP = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True)

@@ -42,9 +42,8 @@ from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.support import body_box_corners, world_corners
 from fallbench.world import World
-from fallbench.vectors import cross
+from fallbench.vectors import UP, cross
 
-UP = np.array([0.0, 0.0, 1.0])
 PIVOTS = ("contacts", "knees", "knees_and_buttocks")
 
 

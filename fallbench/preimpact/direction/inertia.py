@@ -14,10 +14,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from fallbench.vectors import cross
+from fallbench.vectors import UP, cross
 
 UNIQUE = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-UP = np.array([0.0, 0.0, 1.0])
 
 
 def to_vector(inertia: np.ndarray) -> np.ndarray:
