@@ -56,6 +56,7 @@ class DirectionStrategy(Strategy):
         model = self.P.model
         self.feet = world.robot.feet
         self.frames = {side: model.getFrameId(body) for side, body in self.feet.items()}
+        self.foot_sensors = {side: self._foot_sensor_columns(world, body) for side, body in self.feet.items()}
         self.chains = {side: set(model.supports[model.frames[f].parentJoint]) for side, f in self.frames.items()}
         self.leg_columns = {side: np.array(sorted(model.joints[j].idx_v - 6 for j in chain if j > 1))
                             for side, chain in self.chains.items()}
@@ -135,11 +136,17 @@ class DirectionStrategy(Strategy):
 
     # ------------------------------------------------------------------ control
 
+    @staticmethod
+    def _foot_sensor_columns(world: World, foot: str) -> np.ndarray:
+        """sensordata columns of the "found" counts of a foot's contact sensors (the foot body's and its
+        parent's, whichever carries the sole)."""
+        body = world.model.body(foot)
+        names = (f"contact:feet:{body.name}", f"contact:feet:{world.model.body(body.parentid[0]).name}")
+        return np.array([world.sensors[name].start for name in names if name in world.sensors], dtype=int)
+
     def _touching(self, data: mujoco.MjData, side: str) -> bool:
         """Whether a foot's contact sensors see the ground (or an object)."""
-        world, body = self.world, self.world.model.body(self.feet[side])
-        names = (f"contact:feet:{body.name}", f"contact:feet:{world.model.body(body.parentid[0]).name}")
-        return any(world.sensor(data.sensordata, name)[0] > 0 for name in names if name in world.sensors)
+        return bool((data.sensordata[self.foot_sensors[side]] > 0).any())
 
     def _swing(self, t: float, data: mujoco.MjData, qdot: np.ndarray) -> None:
         """Eq. 5 toward the lifted pose (Lift a Leg) or along the step's swing path (Take a Step)."""
