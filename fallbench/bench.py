@@ -50,7 +50,6 @@ RESHAPE_PUSH = Scenario(name="bench_reshape_push", duration=1.45, pre_impact=["r
                         push={"force": 370.0, "duration": 0.1, "start": 0.1, "direction": 0.0})
 
 
-
 def _suffix(solver: str) -> str:
     """Figure-key suffix of a QP solver: none for the default (ProxSuite), `_daqp` for DAQP."""
     return "" if solver == QP_SOLVERS[0] else f"_{solver}"
