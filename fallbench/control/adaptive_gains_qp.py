@@ -135,7 +135,7 @@ def _tasks(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], q_r
         SetPoint(config.w_posture, None, q_joints - q_ref, np.zeros(len(q_ref)), config.posture_kp, config.posture_kv,
                  rows=P.actuated_v),
         SetPoint(config.w_com, terms.J_com, terms.com - com_ref, terms.com_drift, config.com_kp, config.com_kv),
-        tangential_motion_cost(terms.contacts, config.w_tangential, dt),
+        *tangential_motion_cost(terms.contacts, config.w_tangential, dt),
     ]
     if config.w_balance > 0 and points:
         # capture point xi = c + c_dot / omega driven to the contact centre p at `balance_rate` k:

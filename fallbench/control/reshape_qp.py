@@ -49,7 +49,7 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: list[Con
     JtG = terms.contacts.jacobian.T @ G
     n_l = G.shape[1]
     qdd, lam = slice(0, nv), slice(nv, nv + n_l)
-    acceleration = AccelerationMap(np.hstack([np.eye(nv), np.zeros((nv, n_l))]), np.zeros(nv))
+    acceleration = AccelerationMap.first_variables(nv, nv + n_l)
     qp = QPBuilder(acceleration, np.concatenate([np.ones(nv), np.full(n_l, LAMBDA_SCALE)]), terms.v)
 
     base, motors = np.arange(6), P.actuated_v

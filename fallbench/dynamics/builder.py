@@ -1,31 +1,32 @@
-"""The one builder of both QPs: variables y, joint accelerations q_ddot = M y + m, set-point costs,
-regularisations, equality and inequality rows (on y or on q_ddot), bounds on y; then scaled for
-the solver (physical y = scale * x)."""
+"""The one builder of both QPs: variables y, joint accelerations q_ddot = M y + m, set-point costs
+(summed in joint-acceleration space, then carried into y once), regularisations, equality and
+inequality rows (on y or on q_ddot), bounds on y; then scaled for the solver (physical y = scale * x)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from fallbench.dynamics.dense_qp import ScaledQP
-from fallbench.dynamics.objective import AccelerationMap, SetPoint, add_set_points
+from fallbench.dynamics.kernels import scaled_problem
+from fallbench.dynamics.objective import AccelerationMap, SetPoint, task_metric
 
 
 class QPBuilder:
     def __init__(self, acceleration: AccelerationMap, scale: np.ndarray, v: np.ndarray) -> None:
         n = len(scale)
         self.acceleration, self.scale, self.v = acceleration, scale, v
-        self.H, self.g = np.zeros((n, n)), np.zeros(n)
-        self.diagonal = self.H.reshape(-1)[:: n + 1]  # a view of H's diagonal
+        self.tasks: list[SetPoint] = []
+        self.regularisation = np.zeros(n)  # added to the Hessian's diagonal
         self.equalities: list[tuple[np.ndarray, np.ndarray]] = []
         self.inequalities: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.lower, self.upper = np.full(n, -np.inf), np.full(n, np.inf)
 
     def cost(self, tasks: list[SetPoint]) -> None:
-        add_set_points(self.H, self.g, tasks, self.acceleration, self.v)
+        self.tasks.extend(tasks)
 
     def regularise(self, variables: slice, weight: float) -> None:
         """weight |y[variables]|^2."""
-        self.diagonal[variables] += weight
+        self.regularisation[variables] += weight
 
     def equal(self, A: np.ndarray, b: np.ndarray) -> None:
         """A y = b."""
@@ -60,11 +61,8 @@ class QPBuilder:
         C = np.vstack([c for c, _, _ in self.inequalities]) if self.inequalities else np.zeros((0, n))
         l = np.concatenate([lo for _, lo, _ in self.inequalities]) if self.inequalities else np.zeros(0)
         u = np.concatenate([up for _, _, up in self.inequalities]) if self.inequalities else np.zeros(0)
-        scale = self.scale
-        if equilibrate:
-            curvature = self.diagonal * scale**2
-            scale = scale / np.sqrt(np.where(curvature > 0, curvature, 1.0))
-        H = scale[:, None] * self.H * scale[None, :]
-        H.reshape(-1)[:: n + 1] += ridge
-        return ScaledQP(H=H, g=scale * self.g, A=A * scale, b=b, C=C * scale, l=l, u=u,
-                        l_box=self.lower / scale, u_box=self.upper / scale, scale=scale)
+        acceleration = self.acceleration
+        H, g, A, C, l_box, u_box, scale = scaled_problem(acceleration.M, acceleration.m, acceleration.leading,
+                                                         *task_metric(self.tasks, self.v), self.regularisation, A, C,
+                                                         self.lower, self.upper, self.scale, float(ridge), equilibrate)
+        return ScaledQP(H=H, g=g, A=A, b=b, C=C, l=l, u=u, l_box=l_box, u_box=u_box, scale=scale)

@@ -1,8 +1,11 @@
 """Set-point tasks as a quadratic cost in a QP's own variables (002 eq. 1).
 
 A task with error g, Jacobian J and drift J_dot q_dot costs
-weight |J q_ddot + J_dot q_dot + kp g + kv J v|^2. Each QP says how its variables y give the joint
-accelerations, q_ddot = M y + m (`AccelerationMap`); the cost is then stacked in y.
+weight |J q_ddot + J_dot q_dot + kp g + kv J v|^2. The tasks are summed in joint-acceleration space
+first, as the metric W = sum w J'J and the vector r = sum w J'(J_dot q_dot + kp g + kv J v), so that
+the whole cost is q_ddot' W q_ddot + 2 r' q_ddot + const, whatever the number of tasks. Each QP says how
+its variables y give the joint accelerations, q_ddot = M y + m (`AccelerationMap`); the builder then
+carries the cost into y once: H = M' W M, g = M'(W m + r) (`kernels.scaled_problem`).
 """
 
 from __future__ import annotations
@@ -22,29 +25,34 @@ class SetPoint:
     drift: np.ndarray  # (k,) J_dot q_dot
     kp: float  # 1/s^2
     kv: float  # 1/s
-    rows: np.ndarray | None = None  # a selection Jacobian as the velocity indices it picks (faster)
+    rows: np.ndarray | None = None  # a selection Jacobian as the (distinct) velocity indices it picks (faster)
+
+
+def task_metric(tasks: list[SetPoint], v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(W, r) of the tasks in joint-acceleration space (see the module's docstring)."""
+    W, r = np.zeros((len(v), len(v))), np.zeros(len(v))
+    for task in tasks:
+        if task.rows is not None:  # J'J of a selection is diagonal
+            W[task.rows, task.rows] += task.weight
+            r[task.rows] += task.weight * (task.drift + task.kp * task.error + task.kv * v[task.rows])
+        else:
+            J = task.jacobian
+            assert J is not None
+            W += task.weight * (J.T @ J)
+            r += J.T @ (task.weight * (task.drift + task.kp * task.error + task.kv * (J @ v)))
+    return W, r
 
 
 @dataclass
 class AccelerationMap:
-    """q_ddot = M y + m: the joint accelerations (Pinocchio coordinates) as an affine map of a QP's variables."""
+    """q_ddot = M y + m: the joint accelerations (Pinocchio coordinates) as an affine map of a QP's variables.
+    `leading`: M = [I 0] and m = 0, the accelerations are y's first nv entries (the cost then needs no product)."""
 
     M: np.ndarray  # (nv, n)
     m: np.ndarray  # (nv,)
+    leading: bool = False
 
-    def of(self, task: SetPoint) -> tuple[np.ndarray, np.ndarray]:
-        """(J M, J m) for a task."""
-        if task.rows is not None:
-            return self.M[task.rows], self.m[task.rows]
-        assert task.jacobian is not None
-        return task.jacobian @ self.M, task.jacobian @ self.m
-
-
-def add_set_points(H: np.ndarray, g: np.ndarray, tasks: list[SetPoint], acceleration: AccelerationMap, v: np.ndarray) -> None:
-    """H += sum w (J M)'(J M), g += sum w (J M)'(J m + drift + kp g + kv J v), in place."""
-    for task in tasks:
-        velocity = v[task.rows] if task.rows is not None else task.jacobian @ v  # type: ignore[operator]
-        JM, Jm = acceleration.of(task)
-        offset = Jm + task.drift + task.kp * task.error + task.kv * velocity
-        H += task.weight * (JM.T @ JM)
-        g += task.weight * (JM.T @ offset)
+    @classmethod
+    def first_variables(cls, nv: int, n: int) -> AccelerationMap:
+        """q_ddot = y[:nv]."""
+        return cls(np.eye(nv, n), np.zeros(nv), leading=True)
