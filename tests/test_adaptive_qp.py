@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 import fallbench.policies.adaptive_qp as adaptive
 from fallbench.control.adaptive_gains_qp import QPConfig, build_problem
-from fallbench.dynamics.contacts import cone_matrix, environment_contacts
+from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import select_motors
 from fallbench.dynamics.terms import model_terms
@@ -68,7 +69,8 @@ def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impa
         terms, problem, qdd, lam, K, B, e, e_dot = _solve(step, QPConfig(solver=solver))
         # Dynamics (eq. 10), all rows: H qdd + C - J' G lambda = tau; tau = 0 on the base, K e + B e_dot
         # on the selected motors (eq. 15), the held PD torque on the others.
-        tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ cone_matrix(points) @ lam
+        G = scipy.linalg.block_diag(*[p.generators for p in points])  # forces = G lambda, independently of force_map
+        tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ G @ lam
         scale = np.abs(terms.H @ qdd).max() + np.abs(terms.C).max()
         assert np.abs(tau[:6]).max() < TOL * scale
         planned = K * e[s] + B * e_dot[s]

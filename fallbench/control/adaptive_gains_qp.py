@@ -33,9 +33,10 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from fallbench.dynamics.builder import QPBuilder
-from fallbench.dynamics.contacts import ContactPoint, cone_matrix
+from fallbench.dynamics.contacts import ContactPoint
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.limits.contact import normal_acceleration_rows, tangential_motion_cost
 from fallbench.dynamics.model import PinocchioModel
@@ -111,21 +112,33 @@ def variable_scale(n_lambda: int, e: np.ndarray, e_dot: np.ndarray) -> np.ndarra
                            TORQUE_UNIT / np.maximum(np.abs(e_dot), RATE_FLOOR)])
 
 
-def acceleration_map(P: PinocchioModel, terms: ModelTerms, JtG: np.ndarray, selected: np.ndarray, e: np.ndarray,
-                     e_dot: np.ndarray, held_torque: np.ndarray) -> AccelerationMap:
+def acceleration_map(P: PinocchioModel, terms: ModelTerms, selected: np.ndarray, e: np.ndarray, e_dot: np.ndarray,
+                     held_torque: np.ndarray) -> AccelerationMap:
     """q_ddot = M (lambda, K_S, B_S) + m from eq. 10 with the non-selected torques known (eq. 15)."""
-    H_inv, motors = terms.H_inv, P.actuated_v[selected]
-    assert H_inv is not None, "model_terms(..., inverse=True)"
-    n_l, n_s = JtG.shape[1], len(selected)
-    M = np.empty((len(H_inv), n_l + 2 * n_s))
-    M[:, :n_l] = H_inv @ JtG
-    np.multiply(H_inv[:, motors], e[selected], out=M[:, n_l : n_l + n_s])
-    np.multiply(H_inv[:, motors], e_dot[selected], out=M[:, n_l + n_s :])
-    held = np.zeros(len(H_inv))  # generalized forces of the non-selected motors' known torques
-    held[P.actuated_v] = held_torque
-    held[motors] = 0.0  # the selected motors' torques are the QP's
-    m = H_inv @ (held - terms.C)
+    assert terms.H_inv is not None, "model_terms(..., inverse=True)"
+    M, m = _eliminated_accelerations(terms.H_inv, terms.contacts.force_map, P.actuated_v, selected, e, e_dot,
+                                     held_torque, terms.C)
     return AccelerationMap(M, m)
+
+
+@njit(cache=True)
+def _eliminated_accelerations(H_inv: np.ndarray, force_map: np.ndarray, actuated_v: np.ndarray, selected: np.ndarray,
+                              e: np.ndarray, e_dot: np.ndarray, held_torque: np.ndarray,
+                              C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """M = H^-1 [J'G, S_S' diag(e_S), S_S' diag(e_dot_S)], m = H^-1 (S_NS' tau_NS - C)."""
+    nv, n_l, n_s = len(C), force_map.shape[1], len(selected)
+    M = np.empty((nv, n_l + 2 * n_s))
+    if n_l:
+        M[:, :n_l] = H_inv @ force_map
+    held = np.zeros(nv)  # generalized forces of the non-selected motors' known torques
+    for a in range(len(actuated_v)):
+        held[actuated_v[a]] = held_torque[a]
+    for k in range(n_s):
+        motor, column = actuated_v[selected[k]], H_inv[:, actuated_v[selected[k]]]
+        held[motor] = 0.0  # the selected motors' torques are the QP's
+        M[:, n_l + k] = column * e[selected[k]]
+        M[:, n_l + n_s + k] = column * e_dot[selected[k]]
+    return M, H_inv @ (held - C)
 
 
 def _tasks(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], q_ref: np.ndarray, com_ref: np.ndarray,
@@ -152,12 +165,10 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
                   torque_limit: np.ndarray, dt: float, config: QPConfig) -> QPProblem:
     """The QP at one state; e, e_dot (rad, rad/s), held_torque (Nm, used for the motors not
     selected) and torque_limit per actuator (MuJoCo order); dt the control period (s)."""
-    G = cone_matrix(points)
-    JtG = terms.contacts.jacobian.T @ G
-    n_l, n_s = G.shape[1], len(selected)
+    n_l, n_s = terms.contacts.force_map.shape[1], len(selected)
     lam, K, B = slice(0, n_l), slice(n_l, n_l + n_s), slice(n_l + n_s, n_l + 2 * n_s)
     scale = variable_scale(n_l, e[selected], e_dot[selected])
-    acceleration = acceleration_map(P, terms, JtG, selected, e, e_dot, held_torque)
+    acceleration = acceleration_map(P, terms, selected, e, e_dot, held_torque)
     qp = QPBuilder(acceleration, scale, terms.v)
 
     qp.zero_acceleration(*normal_acceleration_rows(terms.contacts))

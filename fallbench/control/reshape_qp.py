@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fallbench.dynamics.builder import QPBuilder
-from fallbench.dynamics.contacts import ContactPoint, cone_matrix
+from fallbench.dynamics.contacts import ContactPoint
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.limits.contact import normal_motion_cost
 from fallbench.dynamics.limits.joint import QDD_BOUND, joint_acceleration_bounds
@@ -45,9 +45,8 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: list[Con
     """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s)."""
     nv = P.model.nv
     assert terms.H is not None, "model_terms(..., inertia=True)"
-    G = cone_matrix(points)
-    JtG = terms.contacts.jacobian.T @ G
-    n_l = G.shape[1]
+    JtG = terms.contacts.force_map
+    n_l = JtG.shape[1]
     qdd, lam = slice(0, nv), slice(nv, nv + n_l)
     acceleration = AccelerationMap.first_variables(nv, nv + n_l)
     qp = QPBuilder(acceleration, np.concatenate([np.ones(nv), np.full(n_l, LAMBDA_SCALE)]), terms.v)

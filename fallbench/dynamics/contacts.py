@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
+from fallbench.dynamics import kernels
 from fallbench.dynamics.model import PinocchioModel
 from fallbench.dynamics.tasks.body_point import bodies_points_kinematics
 
@@ -34,22 +36,13 @@ class ContactKinematics:
     body_of: np.ndarray  # (n,) index of each point's body, bodies numbered in first-seen order
     normal_jacobian: np.ndarray  # (n, nv) n'J of each point
     normal_drift: np.ndarray  # (n,) n' J_dot q_dot, m/s^2
+    force_map: np.ndarray  # (nv, 4 n) J'G: generalized forces (N, Nm) per friction-cone coefficient (N)
 
 
 def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.ndarray, mu: float) -> np.ndarray:
     """(3, 4) unit edges of the linearized cone about `normal`; with (k, 3) arguments, (k, 3, 4)."""
     edges = np.stack([normal + mu * tangent1, normal - mu * tangent1, normal + mu * tangent2, normal - mu * tangent2], axis=-1)
     return edges / np.sqrt(np.add.reduce(edges * edges, axis=-2, keepdims=True))
-
-
-def cone_matrix(points: list[ContactPoint]) -> np.ndarray:
-    """G (3 n, 4 n): block diagonal of the points' friction-cone generators; forces = G lambda."""
-    n = len(points)
-    blocks = np.zeros((n, 3, n, 4))
-    diagonal = np.arange(n)
-    if points:
-        blocks[diagonal, :, diagonal, :] = [point.generators for point in points]
-    return blocks.reshape(3 * n, 4 * n)
 
 
 def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: float) -> list[ContactPoint]:
@@ -75,7 +68,8 @@ def contact_kinematics(P: PinocchioModel, v: np.ndarray, points: list[ContactPoi
     model, data, n = P.model, P.data, len(points)
     if not points:
         empty = np.zeros(0)
-        return ContactKinematics(np.zeros((0, model.nv)), empty, empty, np.zeros((0, 3)), np.zeros(0, dtype=int), np.zeros((0, model.nv)), empty)
+        return ContactKinematics(np.zeros((0, model.nv)), empty, empty, np.zeros((0, 3)), np.zeros(0, dtype=int), np.zeros((0, model.nv)), empty,
+                                 np.zeros((model.nv, 0)))
     bodies = list(dict.fromkeys(p.body for p in points))  # first-seen order
     frames = [P.frame_id(body) for body in bodies]
     body_of = np.array([bodies.index(p.body) for p in points])
@@ -85,4 +79,5 @@ def contact_kinematics(P: PinocchioModel, v: np.ndarray, points: list[ContactPoi
     normals = np.array([p.normal for p in points])
     normal_jacobian, normal_drift = (normals[:, None, :] @ jacobian)[:, 0], (normals * drift).sum(axis=1)
     jacobian = jacobian.reshape(3 * n, model.nv)
-    return ContactKinematics(jacobian, drift.reshape(3 * n), jacobian @ v, normals, body_of, normal_jacobian, normal_drift)
+    forces = kernels.force_map(jacobian, np.array([p.generators for p in points]))
+    return ContactKinematics(jacobian, drift.reshape(3 * n), jacobian @ v, normals, body_of, normal_jacobian, normal_drift, forces)

@@ -12,6 +12,47 @@ from numba import njit
 
 
 @njit(cache=True)
+def points_kinematics(J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarray, body_of: np.ndarray,
+                      offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians (m, 3, nv) and drifts J_dot q_dot (m, 3) of m points fixed in bodies, from each body's
+    world-aligned frame Jacobian J6 (bodies, 6, nv), angular velocity omega (bodies, 3) and classical
+    acceleration at q_ddot = 0 (bodies, 6); point i is on body body_of[i] at world offset offsets[i] (m)
+    from its origin: v_p = v + omega x r, a_p = a + alpha x r + omega x (omega x r)."""
+    count, nv = len(body_of), J6.shape[2]
+    jacobians, drifts = np.empty((count, 3, nv)), np.empty((count, 3))
+    for i in range(count):
+        b = body_of[i]
+        x, y, z = offsets[i, 0], offsets[i, 1], offsets[i, 2]
+        for j in range(nv):  # omega x r = -r x omega, row by row
+            wx, wy, wz = J6[b, 3, j], J6[b, 4, j], J6[b, 5, j]
+            jacobians[i, 0, j] = J6[b, 0, j] + wy * z - wz * y
+            jacobians[i, 1, j] = J6[b, 1, j] + wz * x - wx * z
+            jacobians[i, 2, j] = J6[b, 2, j] + wx * y - wy * x
+        ax, ay, az = acceleration[b, 3], acceleration[b, 4], acceleration[b, 5]
+        wx, wy, wz = omega[b, 0], omega[b, 1], omega[b, 2]
+        cx, cy, cz = wy * z - wz * y, wz * x - wx * z, wx * y - wy * x  # omega x r
+        drifts[i, 0] = acceleration[b, 0] + ay * z - az * y + wy * cz - wz * cy
+        drifts[i, 1] = acceleration[b, 1] + az * x - ax * z + wz * cx - wx * cz
+        drifts[i, 2] = acceleration[b, 2] + ax * y - ay * x + wx * cy - wy * cx
+    return jacobians, drifts
+
+
+@njit(cache=True)
+def force_map(jacobian: np.ndarray, generators: np.ndarray) -> np.ndarray:
+    """J'G (nv, 4 n): generalized forces per friction-cone coefficient, from the point Jacobians
+    (3 n, nv) and each point's cone generators (n, 3, 4) (G is their block diagonal)."""
+    nv, count = jacobian.shape[1], len(generators)
+    result = np.zeros((nv, 4 * count))
+    for i in range(count):
+        for k in range(4):
+            for d in range(3):
+                edge = generators[i, d, k]
+                for j in range(nv):
+                    result[j, 4 * i + k] += jacobian[3 * i + d, j] * edge
+    return result
+
+
+@njit(cache=True)
 def independent_rows(rows: np.ndarray, body_of: np.ndarray, tolerance: float) -> np.ndarray:
     """Rows spanning the same constraints as `rows` (k, nv + 1), independent within each body.
 
@@ -60,3 +101,27 @@ def scaled_problem(M: np.ndarray, m: np.ndarray, leading: bool, W: np.ndarray, r
             H[i, j] *= scale[i] * scale[j]
         H[i, i] += ridge
     return H, g * scale, A * scale, C * scale, lower / scale, upper / scale, scale
+
+
+@njit(cache=True)
+def add_task(W: np.ndarray, r: np.ndarray, jacobian: np.ndarray, rows: np.ndarray, weight: float, offset: np.ndarray) -> None:
+    """W += weight J'J, r += weight J' offset, in place; J is `jacobian` (k, nv), or, when `rows` is
+    not empty, the selection of those (distinct) velocity entries (J'J then diagonal)."""
+    if len(rows):
+        for k in range(len(rows)):
+            W[rows[k], rows[k]] += weight
+            r[rows[k]] += weight * offset[k]
+        return
+    k_rows, nv = jacobian.shape
+    for i in range(nv):
+        for j in range(i, nv):
+            total = 0.0
+            for k in range(k_rows):
+                total += jacobian[k, i] * jacobian[k, j]
+            W[i, j] += weight * total
+            if j != i:
+                W[j, i] += weight * total
+        total = 0.0
+        for k in range(k_rows):
+            total += jacobian[k, i] * offset[k]
+        r[i] += weight * total

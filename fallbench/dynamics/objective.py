@@ -14,6 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fallbench.dynamics import kernels
+
+NO_JACOBIAN, NO_ROWS = np.zeros((0, 0)), np.zeros(0, dtype=np.int64)  # a task given by the other
+
 
 @dataclass
 class SetPoint:
@@ -32,14 +36,12 @@ def task_metric(tasks: list[SetPoint], v: np.ndarray) -> tuple[np.ndarray, np.nd
     """(W, r) of the tasks in joint-acceleration space (see the module's docstring)."""
     W, r = np.zeros((len(v), len(v))), np.zeros(len(v))
     for task in tasks:
-        if task.rows is not None:  # J'J of a selection is diagonal
-            W[task.rows, task.rows] += task.weight
-            r[task.rows] += task.weight * (task.drift + task.kp * task.error + task.kv * v[task.rows])
+        if task.rows is not None:
+            velocity, jacobian, rows = v[task.rows], NO_JACOBIAN, task.rows
         else:
-            J = task.jacobian
-            assert J is not None
-            W += task.weight * (J.T @ J)
-            r += J.T @ (task.weight * (task.drift + task.kp * task.error + task.kv * (J @ v)))
+            assert task.jacobian is not None
+            velocity, jacobian, rows = task.jacobian @ v, np.ascontiguousarray(task.jacobian, dtype=float), NO_ROWS
+        kernels.add_task(W, r, jacobian, rows, float(task.weight), task.drift + task.kp * task.error + task.kv * velocity)
     return W, r
 
 
