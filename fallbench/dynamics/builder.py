@@ -56,13 +56,19 @@ class QPBuilder:
         directions (redundant friction-cone coefficients, gains whose error is near zero) from
         slowing the solver down."""
         n = len(self.scale)
-        A = np.vstack([a for a, _ in self.equalities]) if self.equalities else np.zeros((0, n))
-        b = np.concatenate([b for _, b in self.equalities]) if self.equalities else np.zeros(0)
-        C = np.vstack([c for c, _, _ in self.inequalities]) if self.inequalities else np.zeros((0, n))
-        l = np.concatenate([lo for _, lo, _ in self.inequalities]) if self.inequalities else np.zeros(0)
-        u = np.concatenate([up for _, _, up in self.inequalities]) if self.inequalities else np.zeros(0)
+        rows, values = np.zeros((0, n)), np.zeros(0)  # when there are none
+        A, b = _stacked([a for a, _ in self.equalities], rows), _stacked([b for _, b in self.equalities], values)
+        C = _stacked([c for c, _, _ in self.inequalities], rows)
+        l, u = _stacked([lo for _, lo, _ in self.inequalities], values), _stacked([up for _, _, up in self.inequalities], values)
         acceleration = self.acceleration
         H, g, A, C, l_box, u_box, scale = scaled_problem(acceleration.M, acceleration.m, acceleration.leading,
                                                          *task_metric(self.tasks, self.v), self.regularisation, A, C,
                                                          self.lower, self.upper, self.scale, float(ridge), equilibrate)
         return ScaledQP(H=H, g=g, A=A, b=b, C=C, l=l, u=u, l_box=l_box, u_box=u_box, scale=scale)
+
+
+def _stacked(blocks: list[np.ndarray], empty: np.ndarray) -> np.ndarray:
+    """The blocks one after the other along their first axis; `empty` when there are none."""
+    if not blocks:
+        return empty
+    return blocks[0] if len(blocks) == 1 else np.concatenate(blocks)

@@ -7,6 +7,7 @@ cone, the point Jacobian and drift J_dot q_dot from Pinocchio, and the point's v
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -40,9 +41,10 @@ class ContactKinematics:
 
 
 def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.ndarray, mu: float) -> np.ndarray:
-    """(3, 4) unit edges of the linearized cone about `normal`; with (k, 3) arguments, (k, 3, 4)."""
-    edges = np.stack([normal + mu * tangent1, normal - mu * tangent1, normal + mu * tangent2, normal - mu * tangent2], axis=-1)
-    return edges / np.sqrt(np.add.reduce(edges * edges, axis=-2, keepdims=True))
+    """(3, 4) unit edges n +- mu t of the linearized cone about `normal`; with (k, 3) arguments, (k, 3, 4).
+    (n, t1, t2) orthonormal, as MuJoCo's contact frame: every edge's length is then sqrt(1 + mu^2)."""
+    tangents = np.stack([tangent1, -tangent1, tangent2, -tangent2], axis=-1)
+    return (normal[..., None] + mu * tangents) / math.sqrt(1.0 + mu * mu)
 
 
 def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: float) -> list[ContactPoint]:

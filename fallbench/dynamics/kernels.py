@@ -104,15 +104,17 @@ def scaled_problem(M: np.ndarray, m: np.ndarray, leading: bool, W: np.ndarray, r
 
 
 @njit(cache=True)
-def add_task(W: np.ndarray, r: np.ndarray, jacobian: np.ndarray, rows: np.ndarray, weight: float, offset: np.ndarray) -> None:
-    """W += weight J'J, r += weight J' offset, in place; J is `jacobian` (k, nv), or, when `rows` is
-    not empty, the selection of those (distinct) velocity entries (J'J then diagonal)."""
+def add_task(W: np.ndarray, r: np.ndarray, jacobian: np.ndarray, rows: np.ndarray, weight: float, drift: np.ndarray,
+             error: np.ndarray, kp: float, kv: float, v: np.ndarray) -> None:
+    """W += weight J'J, r += weight J'(drift + kp error + kv J v), in place; J is `jacobian` (k, nv),
+    or, when `rows` is not empty, the selection of those (distinct) velocity entries (J'J diagonal)."""
     if len(rows):
         for k in range(len(rows)):
             W[rows[k], rows[k]] += weight
-            r[rows[k]] += weight * offset[k]
+            r[rows[k]] += weight * (drift[k] + kp * error[k] + kv * v[rows[k]])
         return
     k_rows, nv = jacobian.shape
+    offset = drift + kp * error + kv * (jacobian @ v)
     for i in range(nv):
         for j in range(i, nv):
             total = 0.0

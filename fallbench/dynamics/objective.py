@@ -36,12 +36,10 @@ def task_metric(tasks: list[SetPoint], v: np.ndarray) -> tuple[np.ndarray, np.nd
     """(W, r) of the tasks in joint-acceleration space (see the module's docstring)."""
     W, r = np.zeros((len(v), len(v))), np.zeros(len(v))
     for task in tasks:
-        if task.rows is not None:
-            velocity, jacobian, rows = v[task.rows], NO_JACOBIAN, task.rows
-        else:
-            assert task.jacobian is not None
-            velocity, jacobian, rows = task.jacobian @ v, np.ascontiguousarray(task.jacobian, dtype=float), NO_ROWS
-        kernels.add_task(W, r, jacobian, rows, float(task.weight), task.drift + task.kp * task.error + task.kv * velocity)
+        jacobian = NO_JACOBIAN if task.jacobian is None else np.ascontiguousarray(task.jacobian, dtype=float)
+        rows = NO_ROWS if task.rows is None else task.rows
+        kernels.add_task(W, r, jacobian, rows, float(task.weight), np.asarray(task.drift, dtype=float),
+                         np.asarray(task.error, dtype=float), float(task.kp), float(task.kv), v)
     return W, r
 
 

@@ -49,11 +49,12 @@ def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[Co
     H = _symmetric(pin.crba(model, data, q)) if inertia else None
     H_inv = _symmetric(pin.computeMinverse(model, data, q)) if inverse else None
     C = pin.nonLinearEffects(model, data, q, v).copy()
-    pin.computeJointJacobians(model, data, q)
+    # one kinematic pass; the Jacobians and the CoM terms then read it (same bits as from q again)
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+    pin.computeJointJacobians(model, data)
     pin.updateFramePlacements(model, data)
     contacts = contact_kinematics(P, v, points)
-    pin.centerOfMass(model, data, q, v, np.zeros(model.nv))
+    pin.centerOfMass(model, data, pin.KinematicLevel.ACCELERATION, True)
     com, vcom, com_drift = data.com[0].copy(), data.vcom[0].copy(), data.acom[0].copy()
-    J_com = pin.jacobianCenterOfMass(model, data, q).copy()
+    J_com = pin.jacobianCenterOfMass(model, data, False).copy()  # subtree CoMs from centerOfMass
     return ModelTerms(q, v, H, H_inv, C, contacts, com, vcom, com_drift, J_com)
