@@ -67,12 +67,14 @@ class ImpactLog:
         the contact normal stands in for a force not yet built up."""
         model = self.world.model
         found, wrench = [], np.zeros(6)
-        for point in environment_contacts(model, data, friction=0.0):
-            if point.body not in bodies:
+        contacts = environment_contacts(model, data, friction=0.0)
+        for k, body in enumerate(contacts.bodies):
+            if body not in bodies:
                 continue
-            mujoco.mj_contactForce(model, data, point.index, wrench)
-            force = point.sign * data.contact[point.index].frame.reshape(3, 3).T @ wrench[:3]
-            found.append(Impact(point.body, point.position, force if np.linalg.norm(force) >= 1e-6 else point.normal))
+            index = int(contacts.index[k])
+            mujoco.mj_contactForce(model, data, index, wrench)
+            force = contacts.sign[k] * data.contact[index].frame.reshape(3, 3).T @ wrench[:3]
+            found.append(Impact(body, contacts.positions[k], force if np.linalg.norm(force) >= 1e-6 else contacts.normals[k]))
         return found
 
     def side_first_contact(self, side: str) -> tuple[str, FirstContact] | None:

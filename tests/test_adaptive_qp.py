@@ -33,7 +33,7 @@ def post_impact():
         held = np.clip(self.kp * e + self.kd * e_dot, -self.world.torque_limit, self.world.torque_limit)
         command = original(self, observation, q_ref)
         steps.append((self, q_ref.copy(), observation.qpos.copy(), observation.qvel.copy(), observation.q.copy(),
-                      observation.qd.copy(), points, np.flatnonzero(self.selected), held, {p.body for p in points}))
+                      observation.qd.copy(), points, np.flatnonzero(self.selected), held, set(points.bodies)))
         return command
 
     adaptive.AdaptiveQPPolicy.after_impact = spy
@@ -69,7 +69,7 @@ def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impa
         terms, problem, qdd, lam, K, B, e, e_dot = _solve(step, QPConfig(solver=solver))
         # Dynamics (eq. 10), all rows: H qdd + C - J' G lambda = tau; tau = 0 on the base, K e + B e_dot
         # on the selected motors (eq. 15), the held PD torque on the others.
-        G = scipy.linalg.block_diag(*[p.generators for p in points])  # forces = G lambda, independently of force_map
+        G = scipy.linalg.block_diag(*points.generators)  # forces = G lambda, independently of force_map
         tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ G @ lam
         scale = np.abs(terms.H @ qdd).max() + np.abs(terms.C).max()
         assert np.abs(tau[:6]).max() < TOL * scale
@@ -79,7 +79,7 @@ def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impa
         np.testing.assert_allclose(tau[P.actuated_v[others]], held[others], atol=TOL * scale)
         # Contact rows: every contact point's normal acceleration n'(J qdd + J_dot qd) is zero.
         acc = (terms.contacts.jacobian @ qdd + terms.contacts.drift).reshape(-1, 3)
-        normal_acc = np.einsum("ij,ij->i", acc, np.array([p.normal for p in points]))
+        normal_acc = np.einsum("ij,ij->i", acc, points.normals)
         assert np.abs(normal_acc).max() < 1e-3 * max(1.0, np.abs(qdd).max()), normal_acc
         # Torque limits (eq. 12) and bounds (eq. 13) to the solver's tolerance in its scaled variables.
         assert np.all(np.abs(planned) <= limits[s] * (1 + 1e-4) + 1e-3)
@@ -111,7 +111,7 @@ def test_a_resting_foot_has_zero_normal_acceleration(post_impact) -> None:
     terms, problem, qdd, *_ = _solve(step)
     assert problem.A.shape[0] == 6  # three independent rows per flat foot
     acc = (terms.contacts.jacobian @ qdd + terms.contacts.drift).reshape(-1, 3)
-    normals = np.array([p.normal for p in step[6]])
+    normals = step[6].normals
     normal = np.einsum("ij,ij->i", acc, normals)
     assert np.abs(normal).max() < 1e-3 * max(1.0, np.abs(acc).max())
 

@@ -7,7 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.dynamics.contacts import ContactPoint, contact_kinematics, friction_generators
+from fallbench.dynamics.contacts import ContactSet, contact_kinematics, friction_generators
 from fallbench.dynamics.model import PinocchioModel, build_pinocchio
 from fallbench.scenario import Scenario
 from fallbench.world import build_world
@@ -27,12 +27,13 @@ def _state(P: PinocchioModel, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return q, rng.normal(size=P.model.nv)
 
 
-def _point(P: PinocchioModel, q: np.ndarray) -> ContactPoint:
+def _point(P: PinocchioModel, q: np.ndarray) -> ContactSet:
     pin.framesForwardKinematics(P.model, P.data, q)
     frame = P.model.getFrameId("leg_right_6_link")
     position = P.data.oMf[frame].act(np.array([0.1, -0.05, -0.1]))
     normal = np.array([0.0, 0.0, 1.0])
-    return ContactPoint("leg_right_6_link", position, normal, friction_generators(normal, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), 0.7))
+    generators = friction_generators(normal, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), 0.7)
+    return ContactSet.of_points(["leg_right_6_link"], position, normal, generators)
 
 
 def _point_position(P: PinocchioModel, q: np.ndarray, local: np.ndarray) -> np.ndarray:
@@ -44,11 +45,11 @@ def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
     q, v = _state(P)
     point = _point(P, q)
     frame = P.model.getFrameId("leg_right_6_link")
-    local = P.data.oMf[frame].actInv(point.position)
+    local = P.data.oMf[frame].actInv(point.positions[0])
     pin.computeJointJacobians(P.model, P.data, q)
     pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)
-    kin = contact_kinematics(P, v, [point])
+    kin = contact_kinematics(P, v, point)
     # velocity = J v, and J against finite differences of the point position along v
     fd_velocity = (_point_position(P, pin.integrate(P.model, q, v * EPS), local) - _point_position(P, q, local)) / EPS
     np.testing.assert_allclose(kin.jacobian @ v, fd_velocity, atol=1e-4)
@@ -58,8 +59,8 @@ def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
     pin.computeJointJacobians(P.model, P.data, q_next)
     pin.forwardKinematics(P.model, P.data, q_next, v, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)
-    moved = ContactPoint(point.body, P.data.oMf[frame].act(local), point.normal, point.generators)
-    fd_drift = (contact_kinematics(P, v, [moved]).velocity - kin.velocity) / EPS
+    moved = ContactSet.of_points(point.bodies, P.data.oMf[frame].act(local), point.normals, point.generators)
+    fd_drift = (contact_kinematics(P, v, moved).velocity - kin.velocity) / EPS
     np.testing.assert_allclose(kin.drift, fd_drift, atol=2e-3 * max(1.0, np.abs(fd_drift).max()))
 
 
@@ -73,13 +74,15 @@ def test_friction_generators_are_unit_and_inside_the_cone() -> None:
 
 def test_points_of_one_body_match_one_at_a_time(P: PinocchioModel) -> None:
     q, v = _state(P, 3)
-    first, second = _point(P, q), _point(P, q)
-    second.position = second.position + np.array([0.05, 0.02, 0.0])
+    first = _point(P, q)
+    second = ContactSet.of_points(first.bodies, first.positions + np.array([0.05, 0.02, 0.0]), first.normals, first.generators)
+    both_points = ContactSet.of_points(first.bodies * 2, np.vstack([first.positions, second.positions]),
+                                       np.vstack([first.normals, second.normals]), np.concatenate([first.generators, second.generators]))
     pin.computeJointJacobians(P.model, P.data, q)
     pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)
-    both = contact_kinematics(P, v, [first, second])
-    alone = contact_kinematics(P, v, [second])
+    both = contact_kinematics(P, v, both_points)
+    alone = contact_kinematics(P, v, second)
     np.testing.assert_allclose(both.jacobian[3:], alone.jacobian, atol=1e-12)
     np.testing.assert_allclose(both.drift[3:], alone.drift, atol=1e-12)
     assert not np.allclose(both.jacobian[:3], both.jacobian[3:])

@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit
 
 from fallbench.dynamics.builder import QPBuilder
-from fallbench.dynamics.contacts import ContactPoint
+from fallbench.dynamics.contacts import ContactSet
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.limits.contact import normal_acceleration_rows, tangential_motion_cost
 from fallbench.dynamics.model import PinocchioModel
@@ -141,7 +141,7 @@ def _eliminated_accelerations(H_inv: np.ndarray, force_map: np.ndarray, actuated
     return M, H_inv @ (held - C)
 
 
-def _tasks(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], q_ref: np.ndarray, com_ref: np.ndarray,
+def _tasks(P: PinocchioModel, terms: ModelTerms, points: ContactSet, q_ref: np.ndarray, com_ref: np.ndarray,
            dt: float, config: QPConfig) -> list[SetPoint]:
     q_joints = terms.q[7:][P.actuated_v - 6]
     tasks = [
@@ -150,17 +150,17 @@ def _tasks(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], q_r
         SetPoint(config.w_com, terms.J_com, terms.com - com_ref, terms.com_drift, config.com_kp, config.com_kv),
         *tangential_motion_cost(terms.contacts, config.w_tangential, dt),
     ]
-    if config.w_balance > 0 and points:
+    if config.w_balance > 0 and len(points):
         # capture point xi = c + c_dot / omega driven to the contact centre p at `balance_rate` k:
         # xi_dot = -k (xi - p) <=> c_ddot = -omega k (c - p) - (omega + k) c_dot, a set point on the CoM
-        omega = math.sqrt(GRAVITY / max(terms.com[2] - min(p.position[2] for p in points), 0.1))
-        centre = np.mean([p.position for p in points], axis=0)
+        omega = math.sqrt(GRAVITY / max(terms.com[2] - float(points.positions[:, 2].min()), 0.1))
+        centre = points.positions.mean(axis=0)
         k = config.balance_rate
         tasks.append(SetPoint(config.w_balance, terms.J_com[:2], (terms.com - centre)[:2], terms.com_drift[:2], omega * k, omega + k))
     return tasks
 
 
-def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], selected: np.ndarray,
+def build_problem(P: PinocchioModel, terms: ModelTerms, points: ContactSet, selected: np.ndarray,
                   q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray, held_torque: np.ndarray,
                   torque_limit: np.ndarray, dt: float, config: QPConfig) -> QPProblem:
     """The QP at one state; e, e_dot (rad, rad/s), held_torque (Nm, used for the motors not
@@ -196,7 +196,7 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoin
     return QPProblem(**vars(problem), n_lambda=n_l, selected=selected, acceleration=acceleration)
 
 
-def solve_step(qp: QPSolver, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint],
+def solve_step(qp: QPSolver, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: ContactSet,
                selected: np.ndarray, q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray,
                held_torque: np.ndarray, torque_limit: np.ndarray, dt: float, config: QPConfig) -> tuple[QPResult, QPProblem]:
     started = time.perf_counter()

@@ -171,7 +171,7 @@ class ReshapeController:
         orientation = VectorOrientationTask(world.robot.torso_body, world.robot.torso_axis("left"), lateral_target)
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
-        support = np.mean([p.position for p in points], axis=0) if points else self._feet_on_ground(data)
+        support = points.positions.mean(axis=0) if len(points) else self._feet_on_ground(data)
         tasks += self._landing_tasks(t, direction, facing, torso_rotation, self._stick(data, support, direction))
         if facing == "back":
             tasks += self._hands_below_butt(data)

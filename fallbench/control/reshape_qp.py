@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fallbench.dynamics.builder import QPBuilder
-from fallbench.dynamics.contacts import ContactPoint
+from fallbench.dynamics.contacts import ContactSet
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.limits.contact import normal_motion_cost
 from fallbench.dynamics.limits.joint import QDD_BOUND, joint_acceleration_bounds
@@ -39,7 +39,7 @@ class ReshapeProblem(ScaledQP):
     n_qdd: int
 
 
-def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: list[ContactPoint], tasks: list[SetPoint],
+def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactSet, tasks: list[SetPoint],
                           torque_limit: np.ndarray, joint_range: np.ndarray, dt: float,
                           w_lambda: float, w_qdd: float, w_contact: float) -> ReshapeProblem:
     """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s)."""
@@ -62,7 +62,7 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: list[Con
     qp.bound(lam, 0.0, np.inf)
 
     costs = list(tasks)
-    if points:
+    if len(points):
         # contacts neither sink in nor lift off: a stiff cost rather than an equality, so that a
         # tipping foot's contact points cannot make the problem infeasible
         costs.append(normal_motion_cost(terms.contacts, w_contact, dt))

@@ -19,13 +19,27 @@ from fallbench.dynamics.tasks.body_point import bodies_points_kinematics
 
 
 @dataclass
-class ContactPoint:
-    body: str
-    position: np.ndarray  # m, world
-    normal: np.ndarray  # unit, world, from the environment into the robot
-    generators: np.ndarray  # (3, 4) unit friction-cone edges: force = generators @ lambda
-    index: int = -1  # the contact's index in MjData.contact (-1: not from the simulator)
-    sign: float = 1.0  # +1 when the robot is MuJoCo's geom2 (the contact frame's normal points into it), else -1
+class ContactSet:
+    """The robot's contact points with the environment at one instant, one row per point."""
+
+    bodies: list[str]  # the robot body of each point
+    positions: np.ndarray  # (n, 3) m, world
+    normals: np.ndarray  # (n, 3) unit, world, from the environment into the robot
+    generators: np.ndarray  # (n, 3, 4) unit friction-cone edges: point i's force = generators[i] @ lambda_i
+    index: np.ndarray  # (n,) each contact's index in MjData.contact (-1: not from the simulator)
+    sign: np.ndarray  # (n,) +1 when the robot is MuJoCo's geom2 (the contact frame's normal points into it), else -1
+
+    def __len__(self) -> int:
+        return len(self.bodies)
+
+    @classmethod
+    def of_points(cls, bodies: list[str], positions: np.ndarray, normals: np.ndarray, generators: np.ndarray) -> ContactSet:
+        """Points not from the simulator (index -1)."""
+        return cls(list(bodies), np.asarray(positions, dtype=float).reshape(-1, 3), np.asarray(normals, dtype=float).reshape(-1, 3),
+                   np.asarray(generators, dtype=float).reshape(-1, 3, 4), np.full(len(bodies), -1), np.ones(len(bodies)))
+
+
+NO_CONTACTS = ContactSet.of_points([], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3, 4)))
 
 
 @dataclass
@@ -47,39 +61,37 @@ def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.n
     return (normal[..., None] + mu * tangents) / math.sqrt(1.0 + mu * mu)
 
 
-def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: float) -> list[ContactPoint]:
+def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: float) -> ContactSet:
     """Contacts between a robot body and the world's static geoms (floor, obstacles)."""
     contacts = data.contact
     bodies = model.geom_bodyid[contacts.geom[: data.ncon]]  # (ncon, 2): geom1's and geom2's bodies
     index = np.flatnonzero((bodies[:, 0] == 0) != (bodies[:, 1] == 0))  # not self-contact, not world-world
     if not len(index):
-        return []
+        return NO_CONTACTS
     frames = contacts.frame[index].reshape(-1, 3, 3)
     signs = np.where(bodies[index, 0] == 0, 1.0, -1.0)  # MuJoCo's normal points from geom1 to geom2
     normals = signs[:, None] * frames[:, 0]
     generators = friction_generators(normals, frames[:, 1], frames[:, 2], friction)
-    robot_bodies = np.where(bodies[index, 0] == 0, bodies[index, 1], bodies[index, 0])
-    positions = contacts.pos[index]
-    return [ContactPoint(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body), positions[k], normals[k], generators[k], int(i), float(signs[k]))
-            for k, (i, body) in enumerate(zip(index, robot_bodies))]
+    robot_bodies = np.where(bodies[index, 0] == 0, bodies[index, 1], bodies[index, 0]).tolist()
+    names = {body: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) for body in set(robot_bodies)}
+    return ContactSet([names[body] for body in robot_bodies], contacts.pos[index], normals, generators, index, signs)
 
 
-def contact_kinematics(P: PinocchioModel, v: np.ndarray, points: list[ContactPoint]) -> ContactKinematics:
+def contact_kinematics(P: PinocchioModel, v: np.ndarray, contacts: ContactSet) -> ContactKinematics:
     """Point Jacobians, drifts and velocities, one frame computation per contact body; needs
     forwardKinematics(q, v, 0) and computeJointJacobians(q) done on P.data."""
-    model, data, n = P.model, P.data, len(points)
-    if not points:
+    model, data, n = P.model, P.data, len(contacts)
+    if not n:
         empty = np.zeros(0)
         return ContactKinematics(np.zeros((0, model.nv)), empty, empty, np.zeros((0, 3)), np.zeros(0, dtype=int), np.zeros((0, model.nv)), empty,
                                  np.zeros((model.nv, 0)))
-    bodies = list(dict.fromkeys(p.body for p in points))  # first-seen order
+    bodies = list(dict.fromkeys(contacts.bodies))  # first-seen order
     frames = [P.frame_id(body) for body in bodies]
-    body_of = np.array([bodies.index(p.body) for p in points])
+    body_of = np.array([bodies.index(body) for body in contacts.bodies])
     origins = np.array([data.oMf[frame].translation for frame in frames])
-    offsets = np.array([p.position for p in points]) - origins[body_of]
-    jacobian, drift = bodies_points_kinematics(model, data, frames, body_of, offsets)
-    normals = np.array([p.normal for p in points])
+    jacobian, drift = bodies_points_kinematics(model, data, frames, body_of, contacts.positions - origins[body_of])
+    normals = contacts.normals
     normal_jacobian, normal_drift = (normals[:, None, :] @ jacobian)[:, 0], (normals * drift).sum(axis=1)
     jacobian = jacobian.reshape(3 * n, model.nv)
-    forces = kernels.force_map(jacobian, np.array([p.generators for p in points]))
+    forces = kernels.force_map(jacobian, contacts.generators)
     return ContactKinematics(jacobian, drift.reshape(3 * n), jacobian @ v, normals, body_of, normal_jacobian, normal_drift, forces)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from fallbench.dynamics.contacts import ContactKinematics, ContactPoint, contact_kinematics
+from fallbench.dynamics.contacts import ContactKinematics, ContactSet, contact_kinematics
 from fallbench.dynamics.model import PinocchioModel
 
 
@@ -40,7 +40,7 @@ def _symmetric(upper: np.ndarray) -> np.ndarray:
     return full
 
 
-def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: list[ContactPoint], inertia: bool = False,
+def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: ContactSet, inertia: bool = False,
                 inverse: bool = True) -> ModelTerms:
     """All terms at (q, v), the inertia matrix itself only if `inertia`, its inverse only if `inverse`; afterwards P.data holds the
     kinematics every task's `compute` needs (forwardKinematics(q, v, 0), computeJointJacobians(q),

@@ -54,7 +54,7 @@ class AdaptiveQPPolicy(GainPolicy):
         if self.com_ref is None:
             self.com_ref = ComTask.state(self.P.model, self.P.data, q, v)[0]
         points = environment_contacts(self.world.model, observation.data, self.scenario.friction)
-        touching = {p.body for p in points} - self.selecting_bodies  # the selection only grows: new bodies only
+        touching = set(points.bodies) - self.selecting_bodies  # the selection only grows: new bodies only
         if touching:
             self.selecting_bodies |= touching
             self.selected[select_motors(self.P, touching, self.world.joint_names)] = True
