@@ -31,10 +31,10 @@ class Candidate:
     reachable: bool
 
 
-def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
-    axis = axis / np.linalg.norm(axis)
-    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+def rotated(vector: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
+    """`vector` turned by `angle` (rad) about the unit `axis` (Rodrigues' formula)."""
+    cos, sin = math.cos(angle), math.sin(angle)
+    return vector * cos + cross(axis, vector) * sin + axis * (float(axis @ vector) * (1.0 - cos))
 
 
 def circle_plane_crossings(center: np.ndarray, radius: float, direction: np.ndarray,
@@ -69,9 +69,10 @@ def landing_candidates(pivot: np.ndarray, shoulder: np.ndarray, direction: np.nd
         phi = max(ahead)  # the first crossing on the way down
         mpip = pivot + radius * (math.cos(phi) * direction + math.sin(phi) * UP)
         bip = surface.closest_point(mpip)
-        # the torso has turned with the stick by the time the shoulder reaches the MPIP
-        rotation = rotation_about(tilt_axis, now - phi) @ torso_rotation
-        candidates.append(Candidate(surface, mpip, bip, phi, reach.contains(rotation.T @ (bip - mpip))))
+        # the torso has turned with the stick by the time the shoulder reaches the MPIP: the offset in
+        # that torso's frame is torso' R(tilt, now - phi)' (bip - mpip)
+        offset = torso_rotation.T @ rotated(bip - mpip, tilt_axis, phi - now)
+        candidates.append(Candidate(surface, mpip, bip, phi, reach.contains(offset)))
     return candidates
 
 

@@ -13,32 +13,30 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from fallbench.robots.description import RobotDescription
 
-if TYPE_CHECKING:  # scipy.spatial takes ~0.2 s to import: only runs that reshape load it
-    from scipy.spatial import Delaunay
-
 SAMPLES = 4000
+FACET_TOLERANCE = 1e-12  # m
 SEED = 0
 
 
 @dataclass
 class ReachPolyhedron:
     vertices: np.ndarray  # (n, 3) m, torso frame, centroid at the origin
-    _triangulation: Delaunay | None = field(default=None, repr=False)
+    _facets: np.ndarray | None = field(default=None, repr=False)  # (k, 4): outward unit normal n, offset d; inside: n'x + d <= 0
 
     def contains(self, offset: np.ndarray) -> bool:
-        """Whether `offset` (m, torso frame, from the centroid) lies inside the polyhedron."""
-        if self._triangulation is None:
-            from scipy.spatial import Delaunay
+        """Whether `offset` (m, torso frame, from the centroid) lies inside the polyhedron (the convex
+        hull of the vertices: on the inner side of every facet's plane, to FACET_TOLERANCE)."""
+        if self._facets is None:
+            from scipy.spatial import ConvexHull
 
-            self._triangulation = Delaunay(self.vertices)
-        return bool(self._triangulation.find_simplex(offset) >= 0)
+            self._facets = ConvexHull(self.vertices).equations
+        return bool((self._facets[:, :3] @ offset + self._facets[:, 3] <= FACET_TOLERANCE).all())
 
 
 def sample_wrist_offsets(model: pin.Model, robot: RobotDescription, side: str, samples: int = SAMPLES) -> np.ndarray:

@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactSet
@@ -51,14 +52,10 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactS
     acceleration = AccelerationMap.first_variables(nv, nv + n_l)
     qp = QPBuilder(acceleration, np.concatenate([np.ones(nv), np.full(n_l, LAMBDA_SCALE)]), terms.v)
 
-    base, motors = np.arange(6), P.actuated_v
-    qp.equal(np.hstack([terms.H[base], -JtG[base]]), -terms.C[base])  # H_b qdd + C_b - (J'G)_b lambda = 0
-    qp.within(np.hstack([terms.H[motors], -JtG[motors]]), -torque_limit - terms.C[motors], torque_limit - terms.C[motors])
-    q_joints, v_joints = terms.q[7:][motors - 6], terms.v[motors]
-    low, high = joint_acceleration_bounds(q_joints, v_joints, joint_range, LIMIT_HORIZON_STEPS * dt)
-    qdd_low, qdd_high = np.full(nv, -QDD_BOUND), np.full(nv, QDD_BOUND)
-    qdd_low[motors], qdd_high[motors] = low, high
-    qp.bound(qdd, qdd_low, qdd_high)
+    base_rows, base_values, torque_rows, torque_low, torque_high = _dynamics_rows(terms.H, JtG, terms.C, P.actuated_v, torque_limit)
+    qp.equal(base_rows, base_values)
+    qp.within(torque_rows, torque_low, torque_high)
+    qp.bound(qdd, *_acceleration_bounds(terms.q, terms.v, P.actuated_v, joint_range, LIMIT_HORIZON_STEPS * dt))
     qp.bound(lam, 0.0, np.inf)
 
     costs = list(tasks)
@@ -70,6 +67,31 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactS
     qp.regularise(qdd, w_qdd)
     qp.regularise(lam, w_lambda)
     return ReshapeProblem(**vars(qp.build()), n_qdd=nv)
+
+
+@njit(cache=True)
+def _dynamics_rows(H: np.ndarray, force_map: np.ndarray, C: np.ndarray, motors: np.ndarray,
+                   torque_limit: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rows on y = (q_ddot, lambda) of the dynamics H q_ddot + C - J'G lambda = tau: on the floating
+    base tau = 0, (H_b, -(J'G)_b) y = -C_b; on the motors |tau| <= tau_max,
+    -tau_max - C_m <= (H_m, -(J'G)_m) y <= tau_max - C_m. Returns (base rows, -C_b, motor rows, lower, upper)."""
+    nv, n_l = force_map.shape
+    base, torque = np.empty((6, nv + n_l)), np.empty((len(motors), nv + n_l))
+    base[:, :nv], base[:, nv:] = H[:6], -force_map[:6]
+    for k in range(len(motors)):
+        torque[k, :nv], torque[k, nv:] = H[motors[k]], -force_map[motors[k]]
+    motor_bias = C[motors]
+    return base, -C[:6], torque, -torque_limit - motor_bias, torque_limit - motor_bias
+
+
+@njit(cache=True)
+def _acceleration_bounds(q: np.ndarray, v: np.ndarray, actuated_v: np.ndarray, joint_range: np.ndarray,
+                         horizon: float) -> tuple[np.ndarray, np.ndarray]:
+    """q_ddot bounds (rad/s^2, all nv): joint ranges over `horizon` (s) on the motors, +-QDD_BOUND elsewhere."""
+    low, high = np.full(len(v), -QDD_BOUND), np.full(len(v), QDD_BOUND)
+    motor_low, motor_high = joint_acceleration_bounds(q[7:][actuated_v - 6], v[actuated_v], joint_range, horizon)
+    low[actuated_v], high[actuated_v] = motor_low, motor_high
+    return low, high
 
 
 def solve_reshape(qp: QPSolver, problem: ReshapeProblem) -> tuple[str, bool, np.ndarray | None]:

@@ -54,10 +54,14 @@ class ContactKinematics:
     force_map: np.ndarray  # (nv, 4 n) J'G: generalized forces (N, Nm) per friction-cone coefficient (N)
 
 
+_FIRST, _SECOND = np.array([1.0, -1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0, -1.0])  # edges: +-t1, then +-t2
+
+
 def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.ndarray, mu: float) -> np.ndarray:
-    """(3, 4) unit edges n +- mu t of the linearized cone about `normal`; with (k, 3) arguments, (k, 3, 4).
-    (n, t1, t2) orthonormal, as MuJoCo's contact frame: every edge's length is then sqrt(1 + mu^2)."""
-    tangents = np.stack([tangent1, -tangent1, tangent2, -tangent2], axis=-1)
+    """(3, 4) unit edges n + mu t1, n - mu t1, n + mu t2, n - mu t2 of the linearized cone about `normal`;
+    with (k, 3) arguments, (k, 3, 4). (n, t1, t2) orthonormal, as MuJoCo's contact frame: every edge's
+    length is then sqrt(1 + mu^2)."""
+    tangents = tangent1[..., None] * _FIRST + tangent2[..., None] * _SECOND  # exact: each entry is +-t or 0
     return (normal[..., None] + mu * tangents) / math.sqrt(1.0 + mu * mu)
 
 
@@ -65,14 +69,15 @@ def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: f
     """Contacts between a robot body and the world's static geoms (floor, obstacles)."""
     contacts = data.contact
     bodies = model.geom_bodyid[contacts.geom[: data.ncon]]  # (ncon, 2): geom1's and geom2's bodies
-    index = np.flatnonzero((bodies[:, 0] == 0) != (bodies[:, 1] == 0))  # not self-contact, not world-world
+    world = bodies == 0
+    index = np.flatnonzero(world[:, 0] != world[:, 1])  # not self-contact, not world-world
     if not len(index):
         return NO_CONTACTS
     frames = contacts.frame[index].reshape(-1, 3, 3)
-    signs = np.where(bodies[index, 0] == 0, 1.0, -1.0)  # MuJoCo's normal points from geom1 to geom2
+    signs = np.where(world[index, 0], 1.0, -1.0)  # MuJoCo's normal points from geom1 to geom2
     normals = signs[:, None] * frames[:, 0]
     generators = friction_generators(normals, frames[:, 1], frames[:, 2], friction)
-    robot_bodies = np.where(bodies[index, 0] == 0, bodies[index, 1], bodies[index, 0]).tolist()
+    robot_bodies = bodies[index].sum(axis=1).tolist()  # the other body is the world's, id 0
     names = {body: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) for body in set(robot_bodies)}
     return ContactSet([names[body] for body in robot_bodies], contacts.pos[index], normals, generators, index, signs)
 
