@@ -1,6 +1,6 @@
 """The one builder of both QPs: variables y, joint accelerations q_ddot = M y + m, set-point costs
 (summed in joint-acceleration space, then carried into y once), regularisations, equality and
-inequality rows (on y or on q_ddot), bounds on y; then scaled for the solver (physical y = scale * x)."""
+inequality rows on y, equalities on q_ddot, bounds on y; then scaled for the solver (physical y = scale * x)."""
 
 from __future__ import annotations
 
@@ -39,11 +39,6 @@ class QPBuilder:
     def zero_acceleration(self, R: np.ndarray, r: np.ndarray) -> None:
         """R q_ddot + r = 0."""
         self.equal(R @ self.acceleration.M, -(r + R @ self.acceleration.m))
-
-    def acceleration_within(self, rows: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-        """lower <= q_ddot[rows] <= upper."""
-        m = self.acceleration.m[rows]
-        self.within(self.acceleration.M[rows], lower - m, upper - m)
 
     def bound(self, variables: slice, lower: float | np.ndarray, upper: float | np.ndarray) -> None:
         self.lower[variables], self.upper[variables] = lower, upper

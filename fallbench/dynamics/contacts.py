@@ -96,7 +96,7 @@ def contact_kinematics(P: PinocchioModel, v: np.ndarray, contacts: ContactSet) -
     origins = np.array([data.oMf[frame].translation for frame in frames])
     jacobian, drift = bodies_points_kinematics(model, data, frames, body_of, contacts.positions - origins[body_of])
     normals = contacts.normals
-    normal_jacobian, normal_drift = (normals[:, None, :] @ jacobian)[:, 0], (normals * drift).sum(axis=1)
+    normal_jacobian, normal_drift, velocity = kernels.normal_motion(jacobian, drift, normals, v)
     jacobian = jacobian.reshape(3 * n, model.nv)
     forces = kernels.force_map(jacobian, contacts.generators)
-    return ContactKinematics(jacobian, drift.reshape(3 * n), jacobian @ v, normals, body_of, normal_jacobian, normal_drift, forces)
+    return ContactKinematics(jacobian, drift.reshape(3 * n), velocity, normals, body_of, normal_jacobian, normal_drift, forces)

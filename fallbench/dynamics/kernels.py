@@ -38,6 +38,22 @@ def points_kinematics(J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarra
 
 
 @njit(cache=True)
+def normal_motion(jacobians: np.ndarray, drifts: np.ndarray, normals: np.ndarray,
+                  v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Of m points with Jacobians (m, 3, nv), drifts (m, 3) and unit normals (m, 3): the normal rows
+    n'J (m, nv), normal drifts n' J_dot q_dot (m,) and the point velocities J v (3 m,)."""
+    count, nv = len(normals), len(v)
+    rows, normal_drifts, velocities = np.zeros((count, nv)), np.zeros(count), np.zeros(3 * count)
+    for i in range(count):
+        for d in range(3):
+            normal_drifts[i] += normals[i, d] * drifts[i, d]
+            for j in range(nv):
+                rows[i, j] += normals[i, d] * jacobians[i, d, j]
+                velocities[3 * i + d] += jacobians[i, d, j] * v[j]
+    return rows, normal_drifts, velocities
+
+
+@njit(cache=True)
 def force_map(jacobian: np.ndarray, generators: np.ndarray) -> np.ndarray:
     """J'G (nv, 4 n): generalized forces per friction-cone coefficient, from the point Jacobians
     (3 n, nv) and each point's cone generators (n, 3, 4) (G is their block diagonal)."""
