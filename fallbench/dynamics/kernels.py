@@ -12,6 +12,16 @@ from numba import njit
 
 
 @njit(cache=True)
+def symmetric(upper: np.ndarray) -> np.ndarray:
+    """The full symmetric matrix from an upper triangle (Pinocchio's crba and computeMinverse fill only that)."""
+    full = upper.copy()
+    for i in range(len(full)):
+        for j in range(i):
+            full[i, j] = full[j, i]
+    return full
+
+
+@njit(cache=True)
 def points_kinematics(J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarray, body_of: np.ndarray,
                       offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians (m, 3, nv) and drifts J_dot q_dot (m, 3) of m points fixed in bodies, from each body's

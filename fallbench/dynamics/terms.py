@@ -3,12 +3,12 @@ tasks, limits and the acceleration map (Pinocchio coordinates, Pinocchio's veloc
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
+from fallbench.dynamics import kernels
 from fallbench.dynamics.contacts import ContactKinematics, ContactSet, contact_kinematics
 from fallbench.dynamics.model import PinocchioModel
 
@@ -27,27 +27,14 @@ class ModelTerms:
     J_com: np.ndarray  # (3, nv)
 
 
-@functools.cache
-def _strictly_lower(n: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.tril_indices(n, -1)
-
-
-def _symmetric(upper: np.ndarray) -> np.ndarray:
-    """The full matrix from Pinocchio's upper triangle (crba, computeMinverse fill only that)."""
-    lower = _strictly_lower(len(upper))
-    full = upper.copy()
-    full[lower] = full.T[lower]
-    return full
-
-
 def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: ContactSet, inertia: bool = False,
                 inverse: bool = True) -> ModelTerms:
     """All terms at (q, v), the inertia matrix itself only if `inertia`, its inverse only if `inverse`; afterwards P.data holds the
     kinematics every task's `compute` needs (forwardKinematics(q, v, 0), computeJointJacobians(q),
     updateFramePlacements)."""
     model, data = P.model, P.data
-    H = _symmetric(pin.crba(model, data, q)) if inertia else None
-    H_inv = _symmetric(pin.computeMinverse(model, data, q)) if inverse else None
+    H = kernels.symmetric(pin.crba(model, data, q)) if inertia else None
+    H_inv = kernels.symmetric(pin.computeMinverse(model, data, q)) if inverse else None
     C = pin.nonLinearEffects(model, data, q, v).copy()
     # one kinematic pass; the Jacobians and the CoM terms then read it (same bits as from q again)
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
