@@ -33,11 +33,11 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactSet
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
+from fallbench.dynamics.kernels import compiled
 from fallbench.dynamics.limits.contact import normal_acceleration_rows, tangential_motion_cost
 from fallbench.dynamics.model import PinocchioModel
 from fallbench.dynamics.objective import AccelerationMap, SetPoint
@@ -121,7 +121,7 @@ def acceleration_map(P: PinocchioModel, terms: ModelTerms, selected: np.ndarray,
     return AccelerationMap(M, m)
 
 
-@njit(cache=True)
+@compiled
 def _eliminated_accelerations(H_inv: np.ndarray, force_map: np.ndarray, actuated_v: np.ndarray, selected: np.ndarray,
                               e: np.ndarray, e_dot: np.ndarray, held_torque: np.ndarray,
                               C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -20,13 +20,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactSet
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
+from fallbench.dynamics.kernels import compiled
 from fallbench.dynamics.limits.contact import normal_motion_cost
-from fallbench.dynamics.limits.joint import QDD_BOUND, joint_acceleration_bounds
+from fallbench.dynamics.limits.joint import joint_acceleration_bounds
 from fallbench.dynamics.model import PinocchioModel
 from fallbench.dynamics.objective import AccelerationMap, SetPoint
 from fallbench.dynamics.terms import ModelTerms
@@ -55,7 +55,7 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactS
     base_rows, base_values, torque_rows, torque_low, torque_high = _dynamics_rows(terms.H, JtG, terms.C, P.actuated_v, torque_limit)
     qp.equal(base_rows, base_values)
     qp.within(torque_rows, torque_low, torque_high)
-    qp.bound(qdd, *_acceleration_bounds(terms.q, terms.v, P.actuated_v, joint_range, LIMIT_HORIZON_STEPS * dt))
+    qp.bound(qdd, *joint_acceleration_bounds(terms.q, terms.v, P.actuated_v, joint_range, LIMIT_HORIZON_STEPS * dt))
     qp.bound(lam, 0.0, np.inf)
 
     costs = list(tasks)
@@ -69,7 +69,7 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactS
     return ReshapeProblem(**vars(qp.build()), n_qdd=nv)
 
 
-@njit(cache=True)
+@compiled
 def _dynamics_rows(H: np.ndarray, force_map: np.ndarray, C: np.ndarray, motors: np.ndarray,
                    torque_limit: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rows on y = (q_ddot, lambda) of the dynamics H q_ddot + C - J'G lambda = tau: on the floating
@@ -82,16 +82,6 @@ def _dynamics_rows(H: np.ndarray, force_map: np.ndarray, C: np.ndarray, motors: 
         torque[k, :nv], torque[k, nv:] = H[motors[k]], -force_map[motors[k]]
     motor_bias = C[motors]
     return base, -C[:6], torque, -torque_limit - motor_bias, torque_limit - motor_bias
-
-
-@njit(cache=True)
-def _acceleration_bounds(q: np.ndarray, v: np.ndarray, actuated_v: np.ndarray, joint_range: np.ndarray,
-                         horizon: float) -> tuple[np.ndarray, np.ndarray]:
-    """q_ddot bounds (rad/s^2, all nv): joint ranges over `horizon` (s) on the motors, +-QDD_BOUND elsewhere."""
-    low, high = np.full(len(v), -QDD_BOUND), np.full(len(v), QDD_BOUND)
-    motor_low, motor_high = joint_acceleration_bounds(q[7:][actuated_v - 6], v[actuated_v], joint_range, horizon)
-    low[actuated_v], high[actuated_v] = motor_low, motor_high
-    return low, high
 
 
 def solve_reshape(qp: QPSolver, problem: ReshapeProblem) -> tuple[str, bool, np.ndarray | None]:

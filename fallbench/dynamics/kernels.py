@@ -1,17 +1,40 @@
 """Compiled inner steps of the whole-body QP layer (Numba), shared by both QPs.
 
 At 24-82 variables each NumPy call costs more in dispatch (2-5 us) than in arithmetic, and a QP
-build was some 60 of them; these kernels do the same arithmetic in one call each. They compile on
-first use and are cached next to this file (`cache=True`), so later processes load them.
+build was some 60 of them; these kernels do the same arithmetic in one call each. `compiled`
+defers Numba to the first call: importing it takes ~0.3 s and its code generator ~0.3 s more, which
+only runs that solve a QP need. Kernels are cached next to their source files (`cache=True`), so a
+later process loads rather than compiles them. A kernel calls no other kernel (the deferred ones are
+plain Python functions until their first call).
 """
 
 from __future__ import annotations
 
+import functools
+from typing import Any, Callable, TypeVar
+
 import numpy as np
-from numba import njit
+
+Function = TypeVar("Function", bound=Callable[..., Any])
 
 
-@njit(cache=True)
+def compiled(function: Function) -> Function:
+    """`function` compiled by Numba (nopython, cached on disk) at its first call."""
+    kernel: Callable[..., Any] | None = None
+
+    @functools.wraps(function)
+    def call(*args: Any) -> Any:
+        nonlocal kernel
+        if kernel is None:
+            from numba import njit
+
+            kernel = njit(cache=True)(function)
+        return kernel(*args)
+
+    return call  # type: ignore[return-value]
+
+
+@compiled
 def symmetric(upper: np.ndarray) -> np.ndarray:
     """The full symmetric matrix from an upper triangle (Pinocchio's crba and computeMinverse fill only that)."""
     full = upper.copy()
@@ -21,7 +44,7 @@ def symmetric(upper: np.ndarray) -> np.ndarray:
     return full
 
 
-@njit(cache=True)
+@compiled
 def points_kinematics(J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarray, body_of: np.ndarray,
                       offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians (m, 3, nv) and drifts J_dot q_dot (m, 3) of m points fixed in bodies, from each body's
@@ -47,7 +70,7 @@ def points_kinematics(J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarra
     return jacobians, drifts
 
 
-@njit(cache=True)
+@compiled
 def normal_motion(jacobians: np.ndarray, drifts: np.ndarray, normals: np.ndarray,
                   v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Of m points with Jacobians (m, 3, nv), drifts (m, 3) and unit normals (m, 3): the normal rows
@@ -63,7 +86,7 @@ def normal_motion(jacobians: np.ndarray, drifts: np.ndarray, normals: np.ndarray
     return rows, normal_drifts, velocities
 
 
-@njit(cache=True)
+@compiled
 def force_map(jacobian: np.ndarray, generators: np.ndarray) -> np.ndarray:
     """J'G (nv, 4 n): generalized forces per friction-cone coefficient, from the point Jacobians
     (3 n, nv) and each point's cone generators (n, 3, 4) (G is their block diagonal)."""
@@ -78,7 +101,7 @@ def force_map(jacobian: np.ndarray, generators: np.ndarray) -> np.ndarray:
     return result
 
 
-@njit(cache=True)
+@compiled
 def independent_rows(rows: np.ndarray, body_of: np.ndarray, tolerance: float) -> np.ndarray:
     """Rows spanning the same constraints as `rows` (k, nv + 1), independent within each body.
 
@@ -101,7 +124,7 @@ def independent_rows(rows: np.ndarray, body_of: np.ndarray, tolerance: float) ->
     return combined[:kept]
 
 
-@njit(cache=True)
+@compiled
 def scaled_problem(M: np.ndarray, m: np.ndarray, leading: bool, W: np.ndarray, r: np.ndarray, regularisation: np.ndarray,
                    A: np.ndarray, C: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: np.ndarray, ridge: float,
                    equilibrate: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -129,7 +152,7 @@ def scaled_problem(M: np.ndarray, m: np.ndarray, leading: bool, W: np.ndarray, r
     return H, g * scale, A * scale, C * scale, lower / scale, upper / scale, scale
 
 
-@njit(cache=True)
+@compiled
 def add_task(W: np.ndarray, r: np.ndarray, jacobian: np.ndarray, rows: np.ndarray, weight: float, drift: np.ndarray,
              error: np.ndarray, kp: float, kv: float, v: np.ndarray) -> None:
     """W += weight J'J, r += weight J'(drift + kp error + kv J v), in place; J is `jacobian` (k, nv),
