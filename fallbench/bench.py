@@ -102,7 +102,10 @@ def pure_physics_s(point: ScenarioPoint, steps: int) -> float:
 
 def policy_figures(scenario: Scenario, policy: str, pre_impact: str, repeats: int, physics_s: float,
                    suffix: str = "") -> dict[str, float]:
-    """Episode and controller figures of one policy; keys end in `suffix` (a QP solver variant)."""
+    """Episode and controller figures of one policy; keys end in `suffix` (a QP solver variant). One
+    episode first, not counted: a process's first QP step loads the compiled kernels (~0.1 s, a
+    start-up cost, measured by the whole-command figures), which the median of two would halve in."""
+    run_episode(scenario, policy, pre_impact)
     walls, own, recordings = [], [], []
     for _ in range(repeats):
         started = time.perf_counter()
@@ -131,6 +134,7 @@ def reshape_figures(repeats: int) -> dict[str, float]:
     """The reshaping QP's whole step (ms; median and p99 over the steps of `repeats` episodes) with each solver."""
     figures = {}
     for solver in QP_SOLVERS:
+        run_episode(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape")  # warm-up, as in policy_figures
         steps = []
         for _ in range(repeats):
             stats = compute_metrics(run_episode(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape"))
