@@ -163,7 +163,7 @@ class ReshapeController:
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
         terms = model_terms(self.P, q, v, points, inertia=True, inverse=False)
-        torso_rotation = world.robot.torso_frame(self.P.data.oMf[model.getFrameId(world.robot.torso_body)].rotation)
+        torso_rotation = world.robot.torso_frame(self.P.data.oMf[self.P.frame_id(world.robot.torso_body)].rotation)
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
         facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"

@@ -11,22 +11,17 @@ import pinocchio as pin
 from fallbench.dynamics import kernels
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-
-def points_kinematics(model: pin.Model, data: pin.Data, frame: str, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Jacobians (m, 3, nv) and drifts J_dot q_dot (m, 3) of m points of one body, given as world-frame
-    offsets (m, 3) from the body's origin.
-
-    Needs forwardKinematics(q, v, 0), computeJointJacobians(q) and updateFramePlacements.
-    """
-    return bodies_points_kinematics(model, data, [model.getFrameId(frame)], np.zeros(len(offsets), dtype=int), offsets)
+ONE_BODY = np.zeros(1, dtype=np.int64)  # body_of of a single point
 
 
 def bodies_points_kinematics(model: pin.Model, data: pin.Data, frames: list[int], body_of: np.ndarray,
                              offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians (m, 3, nv) and drifts (m, 3) of m points on several bodies: point i is fixed in the
     body of frame id frames[body_of[i]], at world-frame offset offsets[i] (m) from its origin. One frame
-    Jacobian, velocity and acceleration per body from Pinocchio, then all points in one kernel."""
+    Jacobian, velocity and acceleration per body from Pinocchio, then all points in one kernel.
+
+    Needs forwardKinematics(q, v, 0), computeJointJacobians(q) and updateFramePlacements.
+    """
     J6 = np.array([pin.getFrameJacobian(model, data, frame, LWA) for frame in frames])  # (bodies, 6, nv)
     omega = np.array([pin.getFrameVelocity(model, data, frame, LWA).angular for frame in frames])
     acceleration = np.array([pin.getFrameClassicalAcceleration(model, data, frame, LWA).vector for frame in frames])
@@ -40,7 +35,8 @@ class BodyPoint:
 
     def kinematics(self, model: pin.Model, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, Jacobian (3, nv), drift J_dot q_dot) in the world frame."""
-        placement = data.oMf[model.getFrameId(self.frame)]
+        frame = model.getFrameId(self.frame)
+        placement = data.oMf[frame]
         offset = placement.rotation @ self.local
-        jacobians, drifts = points_kinematics(model, data, self.frame, offset[None, :])
+        jacobians, drifts = bodies_points_kinematics(model, data, [frame], ONE_BODY, offset[None, :])
         return placement.translation + offset, jacobians[0], drifts[0]
