@@ -112,7 +112,7 @@ def test_contact_rows_span_each_bodys_rows_and_are_independent() -> None:
     base = RNG.normal(size=(3, NV + 1))
     foot = np.vstack([base, base[0] + base[1] - base[2]])  # the fourth row depends on the others
     rows = np.vstack([foot, RNG.normal(size=(1, NV + 1))])
-    combined = independent_rows(rows, np.array([0, 0, 0, 0, 1]), 1e-6)
+    combined = independent_rows(rows[:, :NV], rows[:, NV], np.array([0, 0, 0, 0, 1]), 1e-6)
     assert combined.shape == (4, NV + 1)
     assert np.linalg.matrix_rank(combined[:, :NV]) == 4
     # every original row is a combination of the kept ones (both sets have rank 4: the same span)

@@ -104,12 +104,17 @@ class QPResult:
     solve_ms: float
 
 
+@compiled
 def variable_scale(n_lambda: int, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
     """Physical per solver unit: lambda in LAMBDA_SCALE, K and B so that their torques K e and B e_dot
     are about TORQUE_UNIT per unit; with fixed scales a gain whose error is near zero is almost free
-    and the solver crawls along it (thousands of iterations)."""
-    return np.concatenate([np.full(n_lambda, LAMBDA_SCALE), TORQUE_UNIT / np.maximum(np.abs(e), ERROR_FLOOR),
-                           TORQUE_UNIT / np.maximum(np.abs(e_dot), RATE_FLOOR)])
+    and the solver crawls along it (thousands of iterations). e, e_dot of the selected motors."""
+    n_s = len(e)
+    scale = np.full(n_lambda + 2 * n_s, LAMBDA_SCALE)
+    for k in range(n_s):
+        scale[n_lambda + k] = TORQUE_UNIT / max(abs(e[k]), ERROR_FLOOR)
+        scale[n_lambda + n_s + k] = TORQUE_UNIT / max(abs(e_dot[k]), RATE_FLOOR)
+    return scale
 
 
 def acceleration_map(P: PinocchioModel, terms: ModelTerms, selected: np.ndarray, e: np.ndarray, e_dot: np.ndarray,

@@ -102,21 +102,22 @@ def force_map(jacobian: np.ndarray, generators: np.ndarray) -> np.ndarray:
 
 
 @compiled
-def independent_rows(rows: np.ndarray, body_of: np.ndarray, tolerance: float) -> np.ndarray:
-    """Rows spanning the same constraints as `rows` (k, nv + 1), independent within each body.
+def independent_rows(jacobian: np.ndarray, drift: np.ndarray, body_of: np.ndarray, tolerance: float) -> np.ndarray:
+    """Rows spanning the same constraints as the rows (jacobian | drift) (k, nv + 1), independent within each body.
 
     Row i is (n'J | n' J_dot q_dot) of a contact point on body body_of[i]. A body's rows are combined
     by the eigenvectors of the Gram matrix of their Jacobian parts (its left singular vectors); a
     combination whose eigenvalue is below tolerance^2 times the body's largest is dropped (four
     corners of a flat foot give three)."""
-    count, width = rows.shape
-    nv = width - 1
-    combined = np.empty((count, width))
+    count, nv = jacobian.shape
+    rows = np.empty((count, nv + 1))
+    rows[:, :nv], rows[:, nv] = jacobian, drift
+    combined = np.empty((count, nv + 1))
     kept = 0
     for body in range(body_of.max() + 1 if count else 0):
         block = np.ascontiguousarray(rows[np.nonzero(body_of == body)[0]])
-        jacobian = np.ascontiguousarray(block[:, :nv])
-        values, vectors = np.linalg.eigh(jacobian @ np.ascontiguousarray(jacobian.T))
+        block_jacobian = np.ascontiguousarray(block[:, :nv])
+        values, vectors = np.linalg.eigh(block_jacobian @ np.ascontiguousarray(block_jacobian.T))
         for k in range(len(values)):
             if values[k] > tolerance**2 * values[-1]:
                 combined[kept] = np.ascontiguousarray(vectors[:, k]) @ block
@@ -164,14 +165,16 @@ def add_task(W: np.ndarray, r: np.ndarray, jacobian: np.ndarray, rows: np.ndarra
         return
     k_rows, nv = jacobian.shape
     offset = drift + kp * error + kv * (jacobian @ v)
+    products = np.empty(nv)  # row i of J'J, summed over the task's rows in order
     for i in range(nv):
+        products[i:] = 0.0
+        for k in range(k_rows):
+            for j in range(i, nv):  # contiguous in j: vectorised
+                products[j] += jacobian[k, i] * jacobian[k, j]
         for j in range(i, nv):
-            total = 0.0
-            for k in range(k_rows):
-                total += jacobian[k, i] * jacobian[k, j]
-            W[i, j] += weight * total
+            W[i, j] += weight * products[j]
             if j != i:
-                W[j, i] += weight * total
+                W[j, i] += weight * products[j]
         total = 0.0
         for k in range(k_rows):
             total += jacobian[k, i] * offset[k]

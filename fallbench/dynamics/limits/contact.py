@@ -22,8 +22,7 @@ RANK_TOLERANCE = 1e-6  # relative to a body's largest singular value
 
 def normal_acceleration_rows(kinematics: ContactKinematics) -> tuple[np.ndarray, np.ndarray]:
     """(R, r): independent rows with R q_ddot + r = 0 equivalent to zero normal acceleration of every point."""
-    rows = np.column_stack([kinematics.normal_jacobian, kinematics.normal_drift])
-    combined = independent_rows(rows, kinematics.body_of, RANK_TOLERANCE)
+    combined = independent_rows(kinematics.normal_jacobian, kinematics.normal_drift, kinematics.body_of, RANK_TOLERANCE)
     return combined[:, :-1], combined[:, -1]
 
 
