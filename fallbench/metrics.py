@@ -243,7 +243,8 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["controller_ms_median"] = float(np.median(rec.controller_ms))
     row.update(impact_metrics(rec))
     row.update({"qp_solve_ms_median": float("nan"), "qp_solve_ms_p99": float("nan"), "qp_failures": 0,
-                "preimpact_qp_ms_median": float("nan"), "preimpact_qp_ms_p99": float("nan"), "preimpact_qp_failures": 0,
+                "preimpact_qp_ms_median": float("nan"), "preimpact_qp_ms_p99": float("nan"), "preimpact_qp_solve_ms_median": float("nan"),
+                "preimpact_qp_solve_ms_p99": float("nan"), "preimpact_qp_failures": 0,
                 "preimpact_qp_steps": 0, "fall_class_at_detection": "", "fall_class_before_impact": ""})
     row.update(rec.policy_stats)
     if rec.strategy is not None:

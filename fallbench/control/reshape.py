@@ -123,7 +123,8 @@ class ReshapeController:
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
         self.landings: list[Landing] = []
         self.classes: list[str] = []
-        self.step_ms: list[float] = []
+        self.step_ms: list[float] = []  # whole steps
+        self.solve_ms: list[float] = []  # the solver's part of each
         self.failures = 0
 
     def start(self, qpos: np.ndarray, qvel: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
@@ -186,7 +187,9 @@ class ReshapeController:
             tasks.append(SetPoint(weight, None, error[rows], posture.drift()[rows], cfg.task_kp, cfg.task_kv, rows=posture.joint_v[rows]))
         problem = build_reshape_problem(self.P, terms, points, tasks, world.torque_limit, world.joint_range,
                                         self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd, cfg.w_contact)
+        solving = time.perf_counter()
         status, solved, accelerations = solve_reshape(self.qp, problem)
+        self.solve_ms.append((time.perf_counter() - solving) * 1e3)
         qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
@@ -254,6 +257,8 @@ class ReshapeController:
         return {
             "preimpact_qp_ms_median": float(np.median(step)),
             "preimpact_qp_ms_p99": float(np.percentile(step, 99)),
+            "preimpact_qp_solve_ms_median": float(np.median(self.solve_ms)),
+            "preimpact_qp_solve_ms_p99": float(np.percentile(self.solve_ms, 99)),
             "preimpact_qp_failures": self.failures,
             "preimpact_qp_steps": len(step),
             "fall_class_at_detection": self.classes[0],
