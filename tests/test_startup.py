@@ -1,8 +1,10 @@
 """Start-up: the disk cache of compiled models gives the model a compile gives, and recovers from
-a corrupt file."""
+a corrupt file; runs without a QP do not load Numba."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import mujoco
@@ -35,3 +37,20 @@ def test_cached_model_simulates_bit_identically(tmp_path: Path, monkeypatch: pyt
     files[0].write_bytes(files[0].read_bytes()[:1000])  # truncated
     np.testing.assert_array_equal(_steps(world.compile_model(scenario)), _steps(compiled))
     assert world.compile_model(scenario).nq == compiled.nq  # rewritten whole
+
+
+LOADS_NUMBA = """
+import sys
+from fallbench.episode import run_episode
+from fallbench.scenario import Scenario
+run_episode(Scenario(name="drop", duration=0.6, initial={{"height": 0.5}}), "{policy}")
+print("numba" in sys.modules)
+"""
+
+
+@pytest.mark.parametrize("policy, loaded", [("stiff", "False"), ("zero", "False"), ("adaptive_qp", "True")])
+def test_only_qp_runs_load_numba(policy: str, loaded: str) -> None:
+    """Numba costs a process ~0.6 s to load (README): an episode through impact (impact metrics
+    included) loads it only when a QP runs."""
+    result = subprocess.run([sys.executable, "-c", LOADS_NUMBA.format(policy=policy)], capture_output=True, text=True, check=True)
+    assert result.stdout.strip().splitlines()[-1] == loaded

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from fallbench.dynamics.tasks.body_point import BodyPoint
 
 SINGULAR_SINE = float(np.sin(np.radians(10.0)))  # force within 10 deg of the lever arm: singular
 MIN_LEVER = 0.05  # m: joints closer than this to every impact point are not judged
@@ -35,10 +34,11 @@ def singular_joints(model: pin.Model, data: pin.Data, q: np.ndarray, impacts: li
     pin.computeJointJacobians(model, data, q)
     torque = np.zeros(model.nv)
     for impact in impacts:
-        placement = data.oMf[model.getFrameId(impact.body)]
-        local = placement.rotation.T @ (impact.point - placement.translation)
-        _, J, _ = BodyPoint(impact.body, local).kinematics(model, data)
-        torque += J.T @ impact.force
+        # the force at the point as a wrench at the body frame's origin (world-aligned): (f, r x f)
+        frame = model.getFrameId(impact.body)
+        lever = impact.point - data.oMf[frame].translation
+        J6 = pin.getFrameJacobian(model, data, frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        torque += J6.T @ np.concatenate([impact.force, np.cross(lever, impact.force)])
     singular = []
     for name in joints:
         joint = model.getJointId(name)
