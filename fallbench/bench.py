@@ -76,6 +76,10 @@ TARGETS: dict[str, tuple[str, str, float]] = {
     "store: add one run, worst of the adds (s)": ("store_add_one_s_max", "<=", 2.0),
     "store: grouped query (s)": ("store_query_s_median", "<=", 1.0),
 }
+# a QP target's figure -> the same figure of the solver's part alone (a floor that no work outside the solver lowers)
+SOLVER_SHARE = {f"{step}{_suffix(solver)}": f"{solve}{_suffix(solver)}" for solver in QP_SOLVERS for step, solve in
+                (("qp_step_ms_median", "qp_solve_ms_median"), ("qp_step_ms_p99", "qp_solve_ms_p99"),
+                 ("reshape_step_ms_median", "reshape_solve_ms_median"))}
 GROUPED_QUERY = ("SELECT scenario, pre_impact, policy, count(*) AS runs, median(imu_peak_z) AS imu_peak_z, "
                  "min(knee_limit_margin) AS knee_limit_margin FROM runs GROUP BY ALL ORDER BY ALL")
 
@@ -386,10 +390,11 @@ def markdown(figures: dict[str, Any]) -> str:
                   f"median {figures['store_add_one_s_median']:.3f} s, worst {figures['store_add_one_s_max']:.3f} s; "
                   f"grouped query {figures['store_query_s_median']:.3f} s; filtered read (one scenario, one policy) "
                   f"{figures['store_filtered_read_s_median']:.3f} s.", ""]
-    lines += ["| target | measured | limit | met |", "|---|---|---|---|"]
+    lines += ["| target | measured | of which the QP solver alone | limit | met |", "|---|---|---|---|---|"]
     for name, (key, comparison, limit) in TARGETS.items():
+        share = f"{figures[SOLVER_SHARE[key]]:.3g}" if SOLVER_SHARE.get(key) in figures else ""
         if key in figures:
-            lines.append(f"| {name} | {figures[key]:.3g} | {comparison} {limit:g} | {'yes' if figures[f'target_met:{key}'] else 'NO'} |")
+            lines.append(f"| {name} | {figures[key]:.3g} | {share} | {comparison} {limit:g} | {'yes' if figures[f'target_met:{key}'] else 'NO'} |")
         else:
-            lines.append(f"| {name} | not measured | {comparison} {limit:g} | - |")
+            lines.append(f"| {name} | not measured | | {comparison} {limit:g} | - |")
     return "\n".join(lines) + "\n"
