@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from fallbench.vectors import cross
 
 SINGULAR_SINE = float(np.sin(np.radians(10.0)))  # force within 10 deg of the lever arm: singular
 MIN_LEVER = 0.05  # m: joints closer than this to every impact point are not judged
@@ -38,7 +39,7 @@ def singular_joints(model: pin.Model, data: pin.Data, q: np.ndarray, impacts: li
         frame = model.getFrameId(impact.body)
         lever = impact.point - data.oMf[frame].translation
         J6 = pin.getFrameJacobian(model, data, frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        torque += J6.T @ np.concatenate([impact.force, np.cross(lever, impact.force)])
+        torque += J6.T @ np.concatenate([impact.force, cross(lever, impact.force)])
     singular = []
     for name in joints:
         joint = model.getJointId(name)

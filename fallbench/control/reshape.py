@@ -41,8 +41,8 @@ from fallbench.dynamics.terms import model_terms
 from fallbench.scenario import Scenario
 from fallbench.servo import ServoCommand
 from fallbench.support import body_box_corners, world_corners
-from fallbench.world import World
 from fallbench.vectors import UP, cross
+from fallbench.world import World
 
 PIVOTS = ("contacts", "knees", "knees_and_buttocks")
 
