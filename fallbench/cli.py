@@ -10,7 +10,7 @@ from typing import Iterable, Optional
 import typer
 
 from fallbench.robots import DEFAULT_ROBOT
-from fallbench.scenario import ScenarioError, ScenarioPoint, load_scenarios
+from fallbench.scenario import ScenarioError, ScenarioPoint
 
 SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
            Path("scenarios/clutter.yaml"), Path("scenarios/direction.yaml"), Path("scenarios/random.yaml")]
@@ -33,7 +33,9 @@ def fail(message: str, code: int = 2) -> None:
 
 def _load(files: list[Path], robot: str | None = None) -> list[ScenarioPoint]:
     try:
-        return load_scenarios(list(files), robot)
+        from fallbench.registry import load
+
+        return load(list(files), robot)
     except ScenarioError as exc:
         fail(str(exc))
     raise AssertionError  # unreachable: fail() exits
@@ -49,7 +51,7 @@ def _names(text: str, known: Iterable[str], option: str, what: str) -> list[str]
 
 
 def _policies(text: str) -> list[str]:
-    from fallbench.policies import POLICIES
+    from fallbench.registry import POLICIES
 
     return _names(text, POLICIES, "--policies", "policy")
 
@@ -61,7 +63,7 @@ def _robot(name: str | None) -> str | None:
 
 
 def _strategies(text: str) -> list[str]:
-    from fallbench.preimpact import STRATEGIES
+    from fallbench.registry import STRATEGIES
 
     return _names(text, STRATEGIES, "--pre-impact", "strategy")
 
@@ -116,7 +118,7 @@ def run_sweep_command(
     Interrupted sweeps resume: finished runs are skipped. Failed runs are stored with their status.
     Workers only simulate; this process writes the store, so Dask workers need no shared disk.
     """
-    from fallbench.runner import BACKENDS, expand, run_sweep
+    from fallbench.results.runner import BACKENDS, expand, run_sweep
 
     if backend not in BACKENDS:
         fail(f"--backend: unknown backend {backend!r}; known: {', '.join(BACKENDS)}")
@@ -151,7 +153,7 @@ def run_one_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
 ) -> None:
     """Run one case, store it, and print its metrics."""
-    from fallbench.runner import RunSpec, execute
+    from fallbench.results.runner import RunSpec, execute
 
     chosen = _select(_load([file]), point, file)
     row = execute(RunSpec(chosen, _policies(policy)[0], _strategies(pre_impact)[0]), results)
@@ -183,7 +185,7 @@ def export_command(
     The file opens in MuJoCo's viewer (`python -m mujoco.viewer --mjcf scene.xml`) and loads with
     `mujoco.MjModel.from_xml_path` alone; the keyframe `start` holds the initial state.
     """
-    from fallbench.world import export_mjcf
+    from fallbench.sim.world import export_mjcf
 
     chosen = _select(_load([file]), point or ["0"], file)
     out.write_text(export_mjcf(chosen.scenario))
@@ -211,7 +213,7 @@ def bench_command(
     """
     import json
 
-    from fallbench.bench import markdown, run_bench
+    from fallbench.results.bench import markdown, run_bench
 
     chosen = _select(_load([scenario]), point, scenario)
     try:
@@ -240,7 +242,7 @@ def report_command(
 ) -> None:
     """Draw the papers' figures per drop/push point, sweep comparisons and the claims table."""
     from fallbench.report import build_report
-    from fallbench.store import consolidate
+    from fallbench.results.store import consolidate
 
     if (results / "runs").is_dir():
         consolidate(results)  # runs stored by `run one` or an interrupted sweep
@@ -287,7 +289,7 @@ def results_command(
     sql: Optional[str] = typer.Option(None, help="SQL on the view `runs` (DuckDB), e.g. \"SELECT policy, median(imu_peak_z) FROM runs GROUP BY policy\"; replaces the other selection options."),
 ) -> None:
     """List runs and metrics from the results store (runs stored since the last sweep are added first)."""
-    from fallbench.store import consolidate, load_metrics, query
+    from fallbench.results.store import consolidate, load_metrics, query
 
     if (results / "runs").is_dir():
         consolidate(results)
@@ -343,8 +345,8 @@ def check_command(
     running anything when the baseline is missing or corrupt (a NaN, an infinite or non-numeric
     value, a missing column).
     """
-    from fallbench.regress import BaselineError, baseline_frame, compare, load_tolerances, read_baseline, write_baseline
-    from fallbench.runner import expand, run_sweep
+    from fallbench.results.regress import BaselineError, baseline_frame, compare, load_tolerances, read_baseline, write_baseline
+    from fallbench.results.runner import expand, run_sweep
 
     try:
         limits = load_tolerances(tolerances)

@@ -15,7 +15,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Callable, Literal, Union
 
 import numpy as np
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
@@ -457,16 +457,19 @@ def _origin(spec: ScenarioFile, key: str) -> tuple[str, str]:
     return ("sweep", key) if key in spec.sweep else ("randomize", key)
 
 
-def load_scenario_file(path: Path | str, robot: str | None = None) -> list[ScenarioPoint]:
+Check = Callable[[Scenario], "tuple[str, str] | None"]  # (key, reason) of a scenario's first problem, or None
+
+
+def load_scenario_file(path: Path | str, robot: str | None = None, check: Check | None = None) -> list[ScenarioPoint]:
     """Parse, validate and expand one scenario file; raises ScenarioError on any bad input.
-    `robot` replaces the file's robot (and any sweep over robots)."""
+    `robot` replaces the file's robot (and any sweep over robots). `check` sees each distinct point
+    for problems the schema cannot (robot, scene, controllers: `fallbench.registry.check_scenario`);
+    its key is located in the file."""
     path = Path(path)
-    return [point for doc in _read_yaml(path) for point in _load_document(path, doc, robot)]
+    return [point for doc in _read_yaml(path) for point in _load_document(path, doc, robot, check)]
 
 
-def _load_document(path: Path, doc: CommentedMap, robot: str | None = None) -> list[ScenarioPoint]:
-    from fallbench.world import check_scenario  # the world knows robots, bodies and geometry
-
+def _load_document(path: Path, doc: CommentedMap, robot: str | None, check: Check | None) -> list[ScenarioPoint]:
     try:
         spec = ScenarioFile.model_validate(_plain(doc))
     except ValidationError as exc:
@@ -486,13 +489,15 @@ def _load_document(path: Path, doc: CommentedMap, robot: str | None = None) -> l
         raise ScenarioError(path, _line_of(doc, ("sweep",)) or _line_of(doc, ("seeds",)), "sweep",
                             f"{count:,} points (sweep values x seeds), over the limit of {MAX_POINTS_PER_FILE:,} per file")
     points = _points(path, doc, spec, robot)
+    if check is None:
+        return points
     checked: set[str] = set()
     for point in points:
         fingerprint = scenario_hash(point.scenario.model_copy(update={"seed": 0}))
         if fingerprint in checked:
             continue
         checked.add(fingerprint)
-        problem = check_scenario(point.scenario)
+        problem = check(point.scenario)
         if problem:
             key, reason = problem
             loc = tuple(int(p) if p.isdigit() else p for p in key.split("."))
@@ -501,8 +506,8 @@ def _load_document(path: Path, doc: CommentedMap, robot: str | None = None) -> l
     return points
 
 
-def load_scenarios(paths: list[Path | str], robot: str | None = None) -> list[ScenarioPoint]:
-    return [point for path in paths for point in load_scenario_file(path, robot)]
+def load_scenarios(paths: list[Path] | list[Path | str], robot: str | None = None, check: Check | None = None) -> list[ScenarioPoint]:
+    return [point for path in paths for point in load_scenario_file(path, robot, check)]
 
 
 def canonical_json(data: Any) -> str:
@@ -511,3 +516,12 @@ def canonical_json(data: Any) -> str:
 
 def scenario_hash(scenario: Scenario) -> str:
     return hashlib.sha256(canonical_json(scenario.model_dump(mode="json")).encode()).hexdigest()[:16]
+
+
+def resolved_params(kind: str, name: str, defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
+    """A policy's or strategy's parameters: its defaults overridden by the scenario's (no unknown ones)."""
+    unknown = set(given) - set(defaults)
+    if unknown:
+        raise ValueError(f"{kind} {name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(defaults)) or 'none'}")
+    return {**defaults, **given}

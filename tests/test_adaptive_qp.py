@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-import fallbench.policies.adaptive_qp as adaptive
-from fallbench.control.adaptive_gains_qp import QPConfig, build_problem
+import fallbench.postimpact.adaptive_qp.policy as adaptive
+from fallbench.postimpact.adaptive_qp.qp import QPConfig, build_problem
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import select_motors
 from fallbench.dynamics.terms import model_terms
-from fallbench.episode import run_episode
+from fallbench.registry import simulate_named
 from fallbench.scenario import Scenario
 
 TOL = 1e-4  # relative to the largest term of each row
@@ -38,7 +38,7 @@ def post_impact():
 
     adaptive.AdaptiveQPPolicy.after_impact = spy
     try:
-        run_episode(Scenario(name="drop", duration=0.9, initial={"height": 1.0}), "adaptive_qp")
+        simulate_named(Scenario(name="drop", duration=0.9, initial={"height": 1.0}), "adaptive_qp")
     finally:
         adaptive.AdaptiveQPPolicy.after_impact = original
     return steps

@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
-from fallbench.regress import read_baseline, write_baseline
+from fallbench.results.regress import read_baseline, write_baseline
 
 SUITE = """name: tiny
 duration: 0.7

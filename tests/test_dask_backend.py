@@ -8,7 +8,7 @@ import pandas as pd
 from typer.testing import CliRunner
 
 from fallbench.cli import app
-from fallbench.store import load_metrics
+from fallbench.results.store import load_metrics
 
 SUITE = """name: drop
 duration: 0.6

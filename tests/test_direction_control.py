@@ -13,7 +13,7 @@ from fallbench.preimpact.direction.inertia import (desired_inertia, inertia_abou
 from fallbench.preimpact.direction.stepping import swing_velocity
 from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.scenario import Scenario
-from fallbench.world import build_world, initial_state
+from fallbench.sim.world import build_world, initial_state
 
 
 @pytest.fixture(scope="module")

@@ -10,10 +10,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from fallbench.episode import Recording, run_episode
-from fallbench.metrics import compute_metrics
+from fallbench.registry import simulate_named
+from fallbench.sim.recorder import Recording
+from fallbench.analysis.metrics import compute_metrics
 from fallbench.preimpact.direction.outcome import com_path
-from fallbench.scenario import Scenario, load_scenarios
+from fallbench.registry import load
+from fallbench.scenario import Scenario
 
 RING4 = [
     {"type": "box", "pos": [1.25, 0.0, 0.375], "size": [0.6, 0.6, 0.75]},
@@ -28,12 +30,12 @@ FORWARD = Scenario(name="dir_forward", duration=1.1, push={"force": 384, "durati
 
 def _shipped(name: str) -> Scenario:
     """The scenario of a point of the shipped direction.yaml."""
-    return next(p.scenario for p in load_scenarios([SHIPPED]) if p.scenario.name == name)
+    return next(p.scenario for p in load([SHIPPED]) if p.scenario.name == name)
 
 
 @pytest.fixture(scope="module")
 def stepped() -> Recording:
-    return run_episode(FORWARD, "stiff", "direction")
+    return simulate_named(FORWARD, "stiff", "direction")
 
 
 def test_a_planned_step_lands_without_counting_as_an_impact(stepped: Recording) -> None:
@@ -58,7 +60,7 @@ def test_direction_metrics(stepped: Recording) -> None:
 
 
 def test_none_gets_the_obstacle_metrics_too() -> None:
-    row = compute_metrics(run_episode(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
+    row = compute_metrics(simulate_named(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
     assert "direction_strategy" not in row and row["n_safe_regions"] == 2
     assert 0.0 <= row["actual_fall_direction_deg"] < 360.0
     assert row["actual_fall_end"] == "run_end"  # 0.5 s after the push the CoM is still high, no object touched
@@ -66,14 +68,14 @@ def test_none_gets_the_obstacle_metrics_too() -> None:
 
 def test_actual_direction_says_whether_the_com_touched_down() -> None:
     """004 Fig. 6's backward fall into free space reaches the touchdown height; its direction is backward."""
-    row = compute_metrics(run_episode(_shipped("dir_fig6"), "stiff", "none"))
+    row = compute_metrics(simulate_named(_shipped("dir_fig6"), "stiff", "none"))
     assert row["actual_fall_end"] == "touchdown" and row["actual_fall_direction_deg"] == pytest.approx(180.0, abs=5.0)
 
 
 def test_actual_direction_stops_at_the_first_object_contact() -> None:
     """004 Fig. 1's forward fall without control hits the table before the CoM is down: its direction
     is read at that contact (the table, not the fall, sets where the robot ends)."""
-    rec = run_episode(_shipped("dir_fig1"), "stiff", "none")
+    rec = simulate_named(_shipped("dir_fig1"), "stiff", "none")
     row = compute_metrics(rec)
     assert row["obstacle_hit"] and row["actual_fall_end"] == "object"
     touching = np.any([rec.world.sensor(rec.sensordata, name)[:, 0] > 0 for name in rec.world.obstacle_sensors], axis=0)
@@ -89,7 +91,7 @@ def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
     """004 Sec. I-c: whole-body inertia shaping cannot start before the foot placement is complete.
     004 Fig. 7's layout (351 N forward): no step is predicted safe, so tracking switches to whole-body
     shaping, but only after the step's foot is down; switching in flight abandoned the step."""
-    rec = run_episode(_shipped("dir_fig7"), "stiff", "direction")
+    rec = simulate_named(_shipped("dir_fig7"), "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.chosen.kind == "take_step"
     assert strategy.step_done is not None  # the foot landed
@@ -100,9 +102,9 @@ def test_a_step_with_partial_inertia_shaping_lands() -> None:
     """004 Fig. 8/10 (393 N forward, Take a Step + partial inertia shaping): the arms' motion carries
     the descending foot 4.4 cm past its target onto the ground; the step must end there, or the
     swing leg goes on pushing a loaded foot and the step is never complete."""
-    scenario = next(p.scenario for p in load_scenarios([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
+    scenario = next(p.scenario for p in load([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
                     and p.scenario.policy_params["direction"]["mode"] == "take_step_pis")
-    rec = run_episode(scenario, "stiff", "direction")
+    rec = simulate_named(scenario, "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.label.endswith("+pis")
     assert strategy.step_done is not None and strategy.step_done < rec.impact_events[0].t
@@ -114,9 +116,9 @@ def test_whole_body_shaping_keeps_both_grounded_feet_where_they_are() -> None:
     """004 Fig. 10's push with whole-body inertia shaping from double support (No Action): J_I holds
     only the stance foot, so the shaping must not also swing the other grounded leg; it scissored the
     hips by +-1.5 rad, the feet could not follow and the body folded (CoM 0.88 -> 0.70 m)."""
-    scenario = next(p.scenario for p in load_scenarios([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
+    scenario = next(p.scenario for p in load([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
                     and p.scenario.policy_params["direction"]["mode"] == "whole_body_is")
-    rec = run_episode(scenario.model_copy(update={"duration": 0.6}), "stiff", "direction")
+    rec = simulate_named(scenario.model_copy(update={"duration": 0.6}), "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.label == "no_action+wbis"
     model, data = rec.world.model, mujoco.MjData(rec.world.model)

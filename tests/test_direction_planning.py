@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from fallbench.events import support_polygon
+from fallbench.sim.events import support_polygon
 from fallbench.preimpact.direction.candidates import FallState, predict
 from fallbench.preimpact.direction.geometry import Circle, safe_regions
 from fallbench.preimpact.direction.pendulum import rollout
@@ -138,12 +138,13 @@ def test_a_pendulum_falling_back_over_its_polygon_is_a_fall_that_stops() -> None
 
 
 def test_layout_yaw_turns_the_obstacles_about_the_robot(tmp_path) -> None:
+    from fallbench.registry import check_scenario
     from fallbench.scenario import load_scenario_file
 
     path = tmp_path / "turned.yaml"
     path.write_text("name: turned\nduration: 1.0\nobstacles:\n  - {type: box, pos: [1.2, 0.0, 0.4], size: [0.4, 0.8, 0.8], yaw: 10}\n"
                     "  - {type: cylinder, pos: [0.0, -1.0, 0.5], radius: 0.2, height: 1.0}\nsweep:\n  layout_yaw: [0, 90]\n")
-    flat, turned = load_scenario_file(path)
+    flat, turned = load_scenario_file(path, check=check_scenario)
     assert flat.scenario.obstacles[0].pos == pytest.approx((1.2, 0.0, 0.4))
     assert turned.scenario.obstacles[0].pos == pytest.approx((0.0, 1.2, 0.4)) and turned.scenario.obstacles[0].yaw == 100
     assert turned.scenario.obstacles[1].pos == pytest.approx((1.0, 0.0, 0.5))

@@ -9,12 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from fallbench.episode import make_fall_detector, run_episode
-from fallbench.events import (CapturePointDetector, FallDetector, FreefallDetector, TiltDetector, capture_point,
+from fallbench.registry import simulate_named
+from fallbench.sim.episode import make_fall_detector
+from fallbench.sim.events import (CapturePointDetector, FallDetector, FreefallDetector, TiltDetector, capture_point,
                               signed_distance, support_polygon)
-from fallbench.metrics import compute_metrics
+from fallbench.analysis.metrics import compute_metrics
 from fallbench.scenario import Push, Scenario
-from fallbench.world import build_world, initial_state
+from fallbench.sim.world import build_world, initial_state
 
 SQUARE = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]])  # m, a 0.2 x 0.1 foot
 UPRIGHT = np.eye(3)
@@ -94,13 +95,13 @@ def test_method_accepts_one_name_or_a_list() -> None:
 
 
 def test_no_detection_on_a_push_talos_survives() -> None:
-    rec = run_episode(Scenario(name="p", duration=1.5, push=Push(force=235, direction=0, duration=0.1)), "stiff")
+    rec = simulate_named(Scenario(name="p", duration=1.5, push=Push(force=235, direction=0, duration=0.1)), "stiff")
     assert rec.fall_time is None and rec.fall_times == {}
     assert rec.qpos[-1, 2] > 0.9  # still standing (base height, m)
 
 
 def test_capture_point_fires_before_tilt_on_a_fall() -> None:
-    rec = run_episode(Scenario(name="p", duration=1.0, push=Push(force=370, direction=0, duration=0.1)), "stiff")
+    rec = simulate_named(Scenario(name="p", duration=1.0, push=Push(force=370, direction=0, duration=0.1)), "stiff")
     row = compute_metrics(rec)
     assert row["fall_reason"] == "capture_point"
     assert 0.1 < row["fall_time_capture_point"] < 0.35  # within 0.25 s of the push onset (0.1 s)
@@ -116,5 +117,5 @@ def test_posture_noise_moves_the_upper_body_and_leaves_the_robot_standing() -> N
     moved = initial_state(world, noisy).qpos[world.qpos_adr] - initial_state(world, still).qpos[world.qpos_adr]
     legs = np.isin(world.joint_names, world.robot.leg_joints)
     assert np.all(moved[legs] == 0.0) and np.all(np.abs(moved[~legs]) <= 0.03) and np.abs(moved[~legs]).max() > 0.01
-    rec = run_episode(noisy, "stiff")
+    rec = simulate_named(noisy, "stiff")
     assert rec.fall_time is None and rec.fall_times == {}

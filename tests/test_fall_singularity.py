@@ -6,11 +6,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.control.fall_posture import elbow_angle_max_manipulability, fall_posture
-from fallbench.control.fall_singularity import Impact, singular_joints
+from fallbench.preimpact.reshape.fall_posture import elbow_angle_max_manipulability, fall_posture
+from fallbench.dynamics.fall_singularity import Impact, singular_joints
 from fallbench.dynamics.model import PinocchioModel, build_pinocchio
 from fallbench.scenario import Scenario
-from fallbench.world import build_world
+from fallbench.sim.world import build_world
 
 ELBOW = "arm_left_4_joint"
 

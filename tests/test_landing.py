@@ -7,13 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from fallbench.control.fall_direction import FallDirection, fall_class
-from fallbench.control.landing import Candidate, choose, circle_plane_crossings, landing_candidates
+from fallbench.dynamics.fall_direction import FallDirection, fall_class
+from fallbench.preimpact.reshape.landing import Candidate, choose, circle_plane_crossings, landing_candidates
 from fallbench.dynamics.model import build_pinocchio
-from fallbench.control.reach import ReachPolyhedron, compute_polyhedra
-from fallbench.control.surfaces import Surface, scene_surfaces
+from fallbench.preimpact.reshape.reach import ReachPolyhedron, compute_polyhedra
+from fallbench.preimpact.reshape.surfaces import Surface, scene_surfaces
 from fallbench.scenario import Box, Scenario
-from fallbench.world import build_world
+from fallbench.sim.world import build_world
 
 X, Y, Z = np.eye(3)
 

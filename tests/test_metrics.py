@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fallbench.metrics import imu_metrics, joint_limit_margins, landing_metrics, moving_average, torque_metrics
+from fallbench.analysis.metrics import imu_metrics, joint_limit_margins, landing_metrics, moving_average, torque_metrics
 
 
 def test_imu_peaks_raw_and_smoothed() -> None:
@@ -45,7 +45,7 @@ def test_damage_measures_on_hand_made_signals() -> None:
     """Body-weight forces, per-chain torque peaks and vulnerable parts hit, computed by hand."""
     from types import SimpleNamespace
 
-    from fallbench.metrics import damage_metrics
+    from fallbench.analysis.metrics import damage_metrics
 
     robot = SimpleNamespace(torque_chains={"legs": r"leg_.*", "arms": r"arm_.*"},
                             vulnerable_parts={"head": ("head_link",), "gripper_left": ("gripper_a", "gripper_b")})

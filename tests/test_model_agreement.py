@@ -10,11 +10,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench import world as world_module
+from fallbench.sim import world as world_module
 from fallbench.dynamics.model import build_pinocchio, pinocchio_for
 from fallbench.robots import ROBOTS
 from fallbench.scenario import Scenario
-from fallbench.world import build_world, initial_state
+from fallbench.sim.world import build_world, initial_state
 
 
 def _random_state(seed: int, robot: str):

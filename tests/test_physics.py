@@ -8,16 +8,16 @@ import mujoco
 import numpy as np
 import pytest
 
-from fallbench.episode import run_episode
-from fallbench.events import tilt_deg
-from fallbench.metrics import compute_metrics
+from fallbench.registry import simulate_named
+from fallbench.sim.events import tilt_deg
+from fallbench.analysis.metrics import compute_metrics
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.scenario import Scenario
-from fallbench.world import build_world, initial_state
+from fallbench.sim.world import build_world, initial_state
 
 
 def test_drop_impact_time_and_speed_match_free_fall(drop_scenario: Scenario) -> None:
-    row = compute_metrics(run_episode(drop_scenario, "stiff"))
+    row = compute_metrics(simulate_named(drop_scenario, "stiff"))
     g, h = 9.81, 1.0
     assert abs(row["impact_time"] - math.sqrt(2 * h / g)) < 0.005  # s, within one control step
     assert abs(row["impact_speed"] - math.sqrt(2 * g * h)) < 0.05  # m/s
@@ -48,7 +48,7 @@ def test_robot_stands_still_for_2_s_under_stiff(robot: str) -> None:
     mujoco.mj_collision(world.model, data)
     bodies = [(world.model.geom_bodyid[c.geom1], world.model.geom_bodyid[c.geom2]) for c in data.contact[: data.ncon]]
     assert all(0 in pair for pair in bodies), "robot parts touch each other in the default stance"
-    rec = run_episode(scenario, "stiff")
+    rec = simulate_named(scenario, "stiff")
     assert rec.status == "ok" and rec.fall_time is None
     assert np.linalg.norm(rec.qpos[-1, :2] - rec.qpos[0, :2]) < 0.05  # m of base drift
     assert abs(rec.qpos[-1, 2] - get_robot(robot).standing_height) < 0.01  # m: the declared length scale
@@ -59,8 +59,8 @@ def test_robot_stands_still_for_2_s_under_stiff(robot: str) -> None:
 
 
 def test_zero_gains_reach_the_knee_stop_and_stiff_does_not(drop_scenario: Scenario) -> None:
-    stiff = compute_metrics(run_episode(drop_scenario, "stiff"))
-    zero = compute_metrics(run_episode(drop_scenario, "zero"))
+    stiff = compute_metrics(simulate_named(drop_scenario, "stiff"))
+    zero = compute_metrics(simulate_named(drop_scenario, "zero"))
     assert stiff["knee_limit_margin"] > 0.3
     assert zero["knee_limit_margin"] < 0.0
     assert zero["fell"] and not stiff["fell"]
@@ -69,7 +69,7 @@ def test_zero_gains_reach_the_knee_stop_and_stiff_does_not(drop_scenario: Scenar
 def test_push_direction_moves_the_robot_that_way() -> None:
     for direction, axis, sign in ((0, 0, 1), (90, 1, 1), (180, 0, -1)):
         scenario = Scenario(name="p", duration=0.6, push={"force": 200, "duration": 0.2, "start": 0.0, "direction": direction})
-        rec = run_episode(scenario, "stiff")
+        rec = simulate_named(scenario, "stiff")
         assert sign * (rec.qpos[-1, axis] - rec.qpos[0, axis]) > 0.02
 
 
@@ -77,6 +77,6 @@ def test_diverging_run_is_flagged() -> None:
     # the largest push allowed, on the lightest body, at the coarsest step
     scenario = Scenario(name="boom", duration=0.3, physics_dt=0.01, control_dt=0.01,
                         push={"force": 10_000, "duration": 0.1, "start": 0.0, "body": "gripper_left_fingertip_1_link"})
-    rec = run_episode(scenario, "stiff")
+    rec = simulate_named(scenario, "stiff")
     assert rec.status == "diverged" and "BADQ" in rec.error
     assert rec.steps < 30

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from fallbench.impacts import Touch, body_sides, first_impact_prescribed, head_before_hands, knees_simultaneous, touches
+from fallbench.sim.impacts import Touch, body_sides, first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.scenario import Scenario
-from fallbench.world import build_world
+from fallbench.sim.world import build_world
 
 
 def seq(*items: tuple[float, str, str]) -> list[Touch]:

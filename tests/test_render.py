@@ -13,9 +13,9 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from fallbench import store
+from fallbench.results import store
 from fallbench.cli import app
-from fallbench.metrics import REPLAY_RATE
+from fallbench.analysis.metrics import REPLAY_RATE
 
 DROP = "name: drop\nduration: 0.3\ninitial: {height: 0.1}\n"
 

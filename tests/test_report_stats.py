@@ -84,7 +84,7 @@ def test_changes_against_the_unprotected_fall_are_paired_by_point() -> None:
 def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
     """Overview answers first, per robot and family, links its figures; one page per family;
     points in natural order; no filmstrips without drop or push runs, and no error."""
-    from fallbench import store
+    from fallbench.results import store
     from fallbench.report import build_report
 
     rng = np.random.default_rng(3)

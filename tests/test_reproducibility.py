@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from fallbench.store import load_metrics
+from fallbench.results.store import load_metrics
 
 SCENARIOS = """name: qp_drop
 duration: 0.6

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fallbench.episode import Recording, run_episode
-from fallbench.metrics import compute_metrics
+from fallbench.registry import simulate_named
+from fallbench.sim.recorder import Recording
+from fallbench.analysis.metrics import compute_metrics
 from fallbench.scenario import Push, Scenario
 
 BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1))
@@ -14,7 +15,7 @@ BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direct
 
 @pytest.fixture(scope="module")
 def reshaped() -> Recording:
-    return run_episode(BACK_PUSH, "zero", "reshape")
+    return simulate_named(BACK_PUSH, "zero", "reshape")
 
 
 def _first_switch(rec: Recording) -> np.ndarray:
@@ -36,7 +37,7 @@ def test_only_the_impacting_chain_switches_first(reshaped: Recording) -> None:
 
 
 def test_without_reshaping_every_motor_switches_at_once() -> None:
-    rec = run_episode(BACK_PUSH, "zero", "none")
+    rec = simulate_named(BACK_PUSH, "zero", "none")
     np.testing.assert_array_equal(_first_switch(rec), 0.0)
 
 

@@ -14,7 +14,7 @@ from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, Sur
 from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
 from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.scenario import Scenario
-from fallbench.world import build_world
+from fallbench.sim.world import build_world
 
 EPS = 1e-6
 Compute = Callable[[pin.Model, pin.Data], tuple[np.ndarray, np.ndarray, np.ndarray]]

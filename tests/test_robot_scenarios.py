@@ -10,9 +10,10 @@ from typer.testing import CliRunner
 
 from fallbench.cli import SHIPPED, app
 from fallbench.robots import ROBOTS, get_robot
-from fallbench.scenario import Scenario, load_scenario_file, load_scenarios
-from fallbench.support import body_box_corners
-from fallbench.world import build_world
+from fallbench.registry import check_scenario, load
+from fallbench.scenario import Scenario, load_scenario_file
+from fallbench.sim.support import body_box_corners
+from fallbench.sim.world import build_world
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,7 +33,7 @@ sweep:
 def test_robot_sweep_scales_force_by_mass_and_obstacles_by_standing_height(tmp_path: Path) -> None:
     path = tmp_path / "s.yaml"
     path.write_text(SCALED)
-    talos, g1 = load_scenario_file(path)
+    talos, g1 = load_scenario_file(path, check=check_scenario)
     assert (talos.scenario.robot, g1.scenario.robot) == ("talos", "g1")
     assert talos.scenario.push.force == 200 and talos.scenario.obstacles[0].pos == (1.0, 0.0, 0.25)
     mass = get_robot("g1").mass / get_robot("talos").mass
@@ -48,12 +49,12 @@ def test_robot_sweep_scales_force_by_mass_and_obstacles_by_standing_height(tmp_p
 def test_per_robot_values_replace_the_scaled_ones(tmp_path: Path) -> None:
     path = tmp_path / "s.yaml"
     path.write_text(SCALED + "per_robot:\n  g1: {push.force: 90, initial.joints: {left_elbow_joint: 0.3}}\n")
-    g1 = load_scenario_file(path)[1].scenario
+    g1 = load_scenario_file(path, check=check_scenario)[1].scenario
     assert g1.push.force == 90 and g1.initial.joints == {"left_elbow_joint": 0.3}
 
 
 def test_robot_option_overrides_every_file() -> None:
-    points = load_scenarios([ROOT / p for p in SHIPPED], robot="g1")
+    points = load([ROOT / p for p in SHIPPED], robot="g1")
     assert points and {p.scenario.robot for p in points} == {"g1"}
     assert all(p.label.startswith(f"{p.scenario.name}[robot=g1") for p in points)
     drops = [p for p in points if p.scenario.name == "drop"]

@@ -15,7 +15,7 @@ import pyarrow.parquet as pq
 from typer.testing import CliRunner
 
 from fallbench.cli import app
-from fallbench.store import load_metrics
+from fallbench.results.store import load_metrics
 
 SMALL = """name: tiny
 duration: 0.6

@@ -20,6 +20,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from ruamel.yaml import YAML
 
+from fallbench.registry import check_scenario
 from fallbench.scenario import ScenarioError, ScenarioFile, load_scenario_file
 
 SHIPPED = sorted((Path(__file__).resolve().parents[1] / "scenarios").glob("*.yaml"))
@@ -114,7 +115,7 @@ def test_validation_only_ever_fails_with_one_line(data: bytes) -> None:
     path = FOLDER / "mutated.yaml"
     path.write_bytes(data)
     try:
-        load_scenario_file(path)
+        load_scenario_file(path, check=check_scenario)
     except ScenarioError as exc:
         message = str(exc)
         assert "\n" not in message and message.startswith(f"{path}:"), message

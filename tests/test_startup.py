@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from fallbench import world
+from fallbench.sim import world
 from fallbench.scenario import Scenario
 
 
@@ -41,9 +41,9 @@ def test_cached_model_simulates_bit_identically(tmp_path: Path, monkeypatch: pyt
 
 LOADS_NUMBA = """
 import sys
-from fallbench.episode import run_episode
+from fallbench.registry import simulate_named
 from fallbench.scenario import Scenario
-run_episode(Scenario(name="drop", duration=0.6, initial={{"height": 0.5}}), "{policy}")
+simulate_named(Scenario(name="drop", duration=0.6, initial={{"height": 0.5}}), "{policy}")
 print("numba" in sys.modules)
 """
 

@@ -12,7 +12,7 @@ import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
-from fallbench import store
+from fallbench.results import store
 from fallbench.cli import app
 
 POLICIES = ("stiff", "oneshot", "zero", "adaptive_qp")

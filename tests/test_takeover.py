@@ -6,15 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fallbench.episode import run_episode
-from fallbench.metrics import compute_metrics
+from fallbench.registry import simulate_named
+from fallbench.analysis.metrics import compute_metrics
 from fallbench.scenario import Scenario
 
 SHORT_DROP = Scenario(name="drop", duration=0.2, initial={"height": 0.05})  # feet touch at ~0.10 s
 
 
 def test_takeover_at_the_contact_step() -> None:
-    rec = run_episode(SHORT_DROP, "zero")
+    rec = simulate_named(SHORT_DROP, "zero")
     row = compute_metrics(rec)
     dt = SHORT_DROP.physics_dt
     contact = round(row["impact_time"] / dt)  # physics step whose contact sensors first found the floor
@@ -28,8 +28,8 @@ def test_takeover_at_the_contact_step() -> None:
 
 @pytest.mark.parametrize("policy", ["stiff", "zero"])
 def test_gain_scale_scales_the_default_gains(policy: str) -> None:
-    base = run_episode(SHORT_DROP, policy)
-    scaled = run_episode(SHORT_DROP.model_copy(update={"policy_params": {"stiff": {"gain_scale": 2.0}}}), policy)
+    base = simulate_named(SHORT_DROP, policy)
+    scaled = simulate_named(SHORT_DROP.model_copy(update={"policy_params": {"stiff": {"gain_scale": 2.0}}}), policy)
     switch = round(scaled.impact_time / SHORT_DROP.physics_dt)
     np.testing.assert_array_equal(scaled.kp[:switch], 2 * base.kp[:switch])  # before impact, every policy
     np.testing.assert_array_equal(scaled.kd[:switch], 2 * base.kd[:switch])

@@ -17,7 +17,7 @@ from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
 from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.dynamics.terms import ModelTerms, model_terms
 from fallbench.scenario import Scenario
-from fallbench.world import build_world
+from fallbench.sim.world import build_world
 
 EPS = 1e-6
 Terms = tuple[np.ndarray, np.ndarray, np.ndarray]

@@ -10,7 +10,7 @@ import pytest
 from fallbench.dynamics.contacts import ContactSet, contact_kinematics, friction_generators
 from fallbench.dynamics.model import PinocchioModel, build_pinocchio
 from fallbench.scenario import Scenario
-from fallbench.world import build_world
+from fallbench.sim.world import build_world
 
 EPS = 1e-6
 

@@ -16,13 +16,13 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from fallbench.plugins import resolved_params
-from fallbench.servo import ServoCommand
+from fallbench.scenario import resolved_params
+from fallbench.sim.servo import ServoCommand
 
 if TYPE_CHECKING:
-    from fallbench.episode import Recording
     from fallbench.scenario import Scenario
-    from fallbench.world import World
+    from fallbench.sim.recorder import Recording
+    from fallbench.sim.world import World
 
 
 class Strategy(ABC):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 
 from fallbench.preimpact.base import Strategy
-from fallbench.servo import ServoCommand
+from fallbench.sim.servo import ServoCommand
 
 
 class NoStrategy(Strategy):

@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
-from fallbench import store
+from fallbench.results import store
 from fallbench.report import pages, ranking
 from fallbench.report.filmstrips import render_filmstrips
 from fallbench.report.stats import natural_sorted
@@ -25,7 +25,7 @@ from fallbench.report.grouping import with_robot
 def _leg(robot: str) -> tuple[dict[str, str], tuple[float, float], dict[str, float]]:
     """A robot's right-leg pitch joints, its knee range (rad, from the URDF) and their torque limits (Nm)."""
     from fallbench.scenario import Scenario
-    from fallbench.world import build_world
+    from fallbench.sim.world import build_world
 
     world = build_world(Scenario(name="limits", duration=1.0, robot=robot))
     leg = world.robot.leg_pitch("right")

@@ -14,7 +14,7 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Wedge
 from ruamel.yaml import YAML
 
-from fallbench import store
+from fallbench.results import store
 from fallbench.preimpact.direction.config import DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
 from fallbench.report.figures import _save

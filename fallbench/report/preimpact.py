@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from fallbench import store
+from fallbench.results import store
 from fallbench.robots import get_robot
 from fallbench.report.figures import _save
 from fallbench.report.grouping import with_robot

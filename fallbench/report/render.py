@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 from ruamel.yaml import YAML
 
-from fallbench import store
+from fallbench.results import store
 from fallbench.scenario import Scenario
 
 FRAME_SIZE = (480, 400)  # px, width x height of one filmstrip frame
@@ -76,7 +76,7 @@ def _scene_model(scenario: Scenario):
     the same bodies and qpos as the simulated model)."""
     import mujoco
 
-    from fallbench.world import FLOOR_NAME, build_spec
+    from fallbench.sim.world import FLOOR_NAME, build_spec
 
     spec = build_spec(scenario)
     spec.compiler.discardvisual = False  # it would drop the textures below (the URDF's visual meshes are gone already)
@@ -113,7 +113,7 @@ def _body_points(replay: Replay) -> np.ndarray:
     """World positions of every robot body over the replay (every 5th sample): what the camera must hold."""
     import mujoco
 
-    from fallbench.world import build_world
+    from fallbench.sim.world import build_world
 
     model = build_world(replay.scenario).model
     data = mujoco.MjData(model)

@@ -9,7 +9,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import pandas as pd
 
-from fallbench.metrics import LANDING_WINDOW
+from fallbench.analysis.metrics import LANDING_WINDOW
 from fallbench.report.figures import _save
 from fallbench.report.grouping import with_robot
 from fallbench.report.style import colour, ordered

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from fallbench.vectors import cross
+from fallbench.dynamics.vectors import cross
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 

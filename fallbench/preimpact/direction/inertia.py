@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from fallbench.vectors import UP, cross
+from fallbench.dynamics.vectors import UP, cross
 
 UNIQUE = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 

@@ -17,7 +17,7 @@ from fallbench.preimpact.direction.geometry import angle_between, grown_circles,
 from fallbench.preimpact.direction.scoring import score
 
 if TYPE_CHECKING:
-    from fallbench.episode import Recording
+    from fallbench.sim.recorder import Recording
 
 CLEARANCE_RANGE = 2.0  # m: distances beyond this are reported as this
 

@@ -19,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from fallbench.dynamics.model import pinocchio_for
-from fallbench.events import capture_point, support_polygon
+from fallbench.sim.events import capture_point, support_polygon
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
@@ -33,11 +33,11 @@ from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
 from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.preimpact.direction.trigger import ControlTrigger
 from fallbench.scenario import Scenario
-from fallbench.servo import ServoCommand
-from fallbench.world import World
+from fallbench.sim.servo import ServoCommand
+from fallbench.sim.world import World
 
 if TYPE_CHECKING:
-    from fallbench.episode import Recording
+    from fallbench.sim.recorder import Recording
 
 def _yaw_only(rotation: np.ndarray) -> np.ndarray:
     yaw = math.atan2(rotation[1, 0], rotation[0, 0])

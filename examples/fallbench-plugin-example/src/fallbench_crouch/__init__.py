@@ -7,9 +7,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from fallbench.policies.base import FixedGainPolicy
+from fallbench.postimpact.base import FixedGainPolicy
 from fallbench.preimpact.base import Strategy
-from fallbench.servo import ServoCommand
+from fallbench.sim.servo import ServoCommand
 
 
 class CrouchStrategy(Strategy):

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallbench.vectors import UP, cross
+from fallbench.dynamics.vectors import UP, cross
 
 MIN_TRAVEL = 1e-3  # m of CoM travel below which eq. 2 is undefined; the torso's lean stands in
 

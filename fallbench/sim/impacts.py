@@ -9,9 +9,9 @@ import mujoco
 import numpy as np
 
 from fallbench.dynamics.contacts import environment_contacts
-from fallbench.control.fall_singularity import Impact, singular_joints
+from fallbench.dynamics.fall_singularity import Impact, singular_joints
 from fallbench.dynamics.model import pinocchio_for, select_motors
-from fallbench.world import World
+from fallbench.sim.world import World
 
 
 @dataclass

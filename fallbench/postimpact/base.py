@@ -3,31 +3,17 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-import mujoco
 import numpy as np
 
-from fallbench.plugins import resolved_params
-from fallbench.servo import ServoCommand
+from fallbench.scenario import resolved_params
+from fallbench.sim.controllers import Observation
+from fallbench.sim.servo import ServoCommand
 
 if TYPE_CHECKING:
     from fallbench.scenario import Scenario
-    from fallbench.world import World
-
-
-@dataclass
-class Observation:
-    """What the controller measures at a control step (base state from the simulator's truth)."""
-
-    t: float  # s
-    qpos: np.ndarray  # full configuration, MuJoCo order (free joint first)
-    qvel: np.ndarray  # full velocity, MuJoCo order
-    q: np.ndarray  # actuated joints, rad
-    qd: np.ndarray  # actuated joints, rad/s
-    touching: set[str]  # robot bodies in contact with the environment now
-    data: mujoco.MjData  # the simulator's data, read-only, for policies that need contact points
+    from fallbench.sim.world import World
 
 
 class GainPolicy(ABC):
@@ -54,6 +40,10 @@ class GainPolicy(ABC):
     def stats(self) -> dict[str, float]:
         """Per-episode controller figures (QP timings, failures) stored with the metrics."""
         return {}
+
+    def failure_times(self) -> list[float]:
+        """Control steps (s) at which the policy failed to decide (a QP that did not solve)."""
+        return []
 
 
 class FixedGainPolicy(GainPolicy):

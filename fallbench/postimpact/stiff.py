@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from fallbench.policies.base import FixedGainPolicy
+from fallbench.postimpact.base import FixedGainPolicy
 
 if TYPE_CHECKING:
     from fallbench.scenario import Scenario

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fallbench.policies.base import FixedGainPolicy
+from fallbench.postimpact.base import FixedGainPolicy
 
 
 class OneshotPolicy(FixedGainPolicy):

@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 import fallbench
-from fallbench import store
+from fallbench.results import store
 from fallbench.robots import get_robot
 from fallbench.scenario import ScenarioPoint
 
@@ -108,14 +108,14 @@ class Outcome:
 
 def simulate(spec: RunSpec) -> Outcome:
     """Run one case and compute its metrics. Never raises for a failing simulation."""
-    from fallbench.episode import run_episode
-    from fallbench.metrics import compute_metrics, timeseries
+    from fallbench.registry import simulate_named
+    from fallbench.analysis.metrics import compute_metrics, timeseries
 
     started = time.perf_counter()
     row = _identity(spec)
     series = None
     try:
-        recording = run_episode(spec.point.scenario, spec.policy, spec.pre_impact)
+        recording = simulate_named(spec.point.scenario, spec.policy, spec.pre_impact)
         row["status"], row["error"] = recording.status, recording.error
         with np.errstate(all="ignore"):  # a diverged recording holds NaNs; its metrics may too
             row.update(compute_metrics(recording))
@@ -156,9 +156,9 @@ def prepare(specs: list[RunSpec]) -> None:
     """Import the simulation code and compile the specs' worlds and Pinocchio models in this
     process (at most the world cache's size), so that forked workers inherit them."""
     from fallbench.dynamics.model import pinocchio_for
-    from fallbench.world import build_world
+    from fallbench.sim.world import build_world
 
-    for module in ("fallbench.episode", "fallbench.metrics"):  # policies, strategies, pandas
+    for module in ("fallbench.sim.episode", "fallbench.analysis.metrics"):  # policies, strategies, pandas
         importlib.import_module(module)
     worlds: set[int] = set()
     for spec in specs:

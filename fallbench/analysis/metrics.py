@@ -14,12 +14,12 @@ import mujoco
 import numpy as np
 import pandas as pd
 
-from fallbench.control.fall_direction import fall_class, horizontal_unit
-from fallbench.episode import Recording
+from fallbench.dynamics.fall_direction import fall_class, horizontal_unit
+from fallbench.sim.recorder import Recording
 from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
-from fallbench.events import METHODS
-from fallbench.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
-from fallbench.servo import pd_demand
+from fallbench.sim.events import METHODS
+from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
+from fallbench.sim.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
 IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated

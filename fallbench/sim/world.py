@@ -27,7 +27,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from fallbench.robots import get_robot
+from fallbench.robots import ROBOTS, get_robot
 from fallbench.robots.description import RobotDescription
 from fallbench.scenario import Box, Cylinder, Scenario
 
@@ -205,7 +205,7 @@ def _world_key(scenario: Scenario) -> str:
 @cache
 def _builder_source() -> bytes:
     """This module's and the robot layer's source: what turns a scenario into a model."""
-    files = [Path(__file__), *sorted((Path(__file__).parent / "robots").rglob("*.py"))]
+    files = [Path(__file__), *sorted((Path(__file__).parent.parent / "robots").rglob("*.py"))]
     return b"".join(path.read_bytes() for path in files)
 
 
@@ -338,20 +338,8 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
 
 # ---------------------------------------------------------------- checks before running
 
-def _parameter_problem(default: Any, value: Any) -> str | None:
-    """Why a policy or strategy parameter's value does not fit its default's type, else None."""
-    if isinstance(default, bool) or isinstance(default, str):
-        return None if isinstance(value, type(default)) else f"expected {type(default).__name__} (got {value!r})"
-    if isinstance(default, (int, float)):
-        number = isinstance(value, (int, float)) and not isinstance(value, bool)
-        return None if number and math.isfinite(value) else f"expected a finite number (got {value!r})"
-    return None
-
-
-def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
+def check_scene(scenario: Scenario) -> tuple[str, str] | None:
     """(key, reason) of the first problem that needs the robot or the scene to see, else None."""
-    from fallbench.robots import ROBOTS
-
     if scenario.robot not in ROBOTS:
         return "robot", f"unknown robot {scenario.robot!r} (known: {', '.join(sorted(ROBOTS))})"
     robot = get_robot(scenario.robot)
@@ -368,32 +356,6 @@ def check_scenario(scenario: Scenario) -> tuple[str, str] | None:
             return f"initial.joints.{name}", f"{value} rad is outside the joint range [{low:.3f}, {high:.3f}] rad"
     if scenario.push and scenario.push.body is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scenario.push.body) < 1:
         return "push.body", f"unknown body {scenario.push.body!r} of robot {robot.name!r}"
-    from fallbench.policies import POLICIES
-    from fallbench.preimpact import STRATEGIES
-
-    for index, name in enumerate(scenario.pre_impact or ()):
-        if name not in STRATEGIES:
-            return f"pre_impact.{index}", f"unknown pre-impact strategy {name!r} (known: {', '.join(STRATEGIES)})"
-    parameters = {name: policy.defaults for name, policy in POLICIES.items()} | {
-        name: strategy.defaults for name, strategy in STRATEGIES.items() if strategy.defaults}
-    for policy, params in scenario.policy_params.items():
-        if policy not in parameters:
-            return f"policy_params.{policy}", f"unknown policy or strategy (known: {', '.join(parameters)})"
-        unknown = sorted(set(params) - set(parameters[policy]))
-        if unknown:
-            known = ", ".join(sorted(parameters[policy])) or "none"
-            return f"policy_params.{policy}.{unknown[0]}", f"unknown parameter of {policy!r} (known: {known})"
-        for key, value in params.items():
-            problem = _parameter_problem(parameters[policy][key], value)
-            allowed = getattr(POLICIES.get(policy) or STRATEGIES.get(policy), "choices", {}).get(key)
-            if not problem and allowed and value not in allowed:
-                problem = f"expected one of {', '.join(allowed)} (got {value!r})"
-            if problem:
-                return f"policy_params.{policy}.{key}", problem
-    from fallbench.policies.stiff import gain_scale
-
-    if gain_scale(scenario) <= 0:
-        return "policy_params.stiff.gain_scale", f"the baseline gain scale must be > 0 (got {gain_scale(scenario)})"
     if scenario.push and scenario.push.start >= scenario.duration:
         return "push.start", f"the push starts at {scenario.push.start} s, after the episode ends ({scenario.duration} s)"
     if not scenario.obstacles:  # nothing to intersect (posing the robot costs each point ~4 ms)

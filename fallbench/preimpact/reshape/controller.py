@@ -23,14 +23,14 @@ import numpy as np
 
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import make_solver
-from fallbench.control.fall_direction import FallDirection, fall_class, heading
-from fallbench.control.fall_posture import fall_posture
-from fallbench.control.landing import Candidate, choose, landing_candidates
+from fallbench.dynamics.fall_direction import FallDirection, fall_class, heading
+from fallbench.preimpact.reshape.fall_posture import fall_posture
+from fallbench.preimpact.reshape.landing import Candidate, choose, landing_candidates
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.dynamics.objective import SetPoint
-from fallbench.control.reach import reach_polyhedra
-from fallbench.control.reshape_qp import build_reshape_problem, solve_reshape
-from fallbench.control.surfaces import scene_surfaces
+from fallbench.preimpact.reshape.reach import reach_polyhedra
+from fallbench.preimpact.reshape.qp import build_reshape_problem, solve_reshape
+from fallbench.preimpact.reshape.surfaces import scene_surfaces
 from fallbench.dynamics.tasks.body_point import BodyPoint
 from fallbench.dynamics.tasks.com import ComTask
 from fallbench.dynamics.tasks.posture import PostureTask
@@ -39,10 +39,10 @@ from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
 from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.dynamics.terms import model_terms
 from fallbench.scenario import Scenario
-from fallbench.servo import ServoCommand
-from fallbench.support import body_box_corners, world_corners
-from fallbench.vectors import UP, cross
-from fallbench.world import World
+from fallbench.sim.servo import ServoCommand
+from fallbench.sim.support import body_box_corners, world_corners
+from fallbench.dynamics.vectors import UP, cross
+from fallbench.sim.world import World
 
 PIVOTS = ("contacts", "knees", "knees_and_buttocks")
 

@@ -35,13 +35,13 @@ import mujoco
 import numpy as np
 from joblib import Parallel, delayed
 
-from fallbench.episode import run_episode
-from fallbench.metrics import compute_metrics
-from fallbench.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
+from fallbench.registry import load, simulate_named
+from fallbench.analysis.metrics import compute_metrics
+from fallbench.results.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
 from fallbench.dynamics.dense_qp import QP_SOLVERS
 from fallbench.scenario import Scenario, ScenarioPoint
-from fallbench.servo import ServoCommand, write_servo
-from fallbench.world import build_world, initial_state
+from fallbench.sim.servo import ServoCommand, write_servo
+from fallbench.sim.world import build_world, initial_state
 
 POLICIES = ("stiff", "oneshot", "zero", "adaptive_qp")
 FIXED = ("stiff", "oneshot", "zero")
@@ -109,11 +109,11 @@ def policy_figures(scenario: Scenario, policy: str, pre_impact: str, repeats: in
     """Episode and controller figures of one policy; keys end in `suffix` (a QP solver variant). One
     episode first, not counted: a process's first QP step loads the compiled kernels (~0.1 s, a
     start-up cost, measured by the whole-command figures), which the median of two would halve in."""
-    run_episode(scenario, policy, pre_impact)
+    simulate_named(scenario, policy, pre_impact)
     walls, own, recordings = [], [], []
     for _ in range(repeats):
         started = time.perf_counter()
-        recording = run_episode(scenario, policy, pre_impact)
+        recording = simulate_named(scenario, policy, pre_impact)
         walls.append(time.perf_counter() - started)
         own.append(recording.physics_s)
         recordings.append(recording)
@@ -140,10 +140,10 @@ def reshape_figures(repeats: int) -> dict[str, float]:
     median of those over `repeats` episodes) with each solver."""
     figures = {}
     for solver in QP_SOLVERS:
-        run_episode(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape")  # warm-up, as in policy_figures
+        simulate_named(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape")  # warm-up, as in policy_figures
         steps = []
         for _ in range(repeats):
-            stats = compute_metrics(run_episode(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape"))
+            stats = compute_metrics(simulate_named(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape"))
             steps.append((stats["preimpact_qp_ms_median"], stats["preimpact_qp_ms_p99"], stats["preimpact_qp_solve_ms_median"],
                           stats["preimpact_qp_solve_ms_p99"], stats["preimpact_qp_steps"]))
         median, p99, solve_median, solve_p99, count = (statistics.median(column) for column in zip(*steps))
@@ -201,11 +201,11 @@ def _sweep_file(runs: int, folder: Path) -> Path:
     """A scenario file of runs / 4 points, drops and pushes in turn from the shipped files."""
     from ruamel.yaml import YAML
 
-    from fallbench.scenario import Scenario, load_scenarios
+    from fallbench.scenario import Scenario
 
     shipped = Path(__file__).resolve().parents[1] / "scenarios"
     default = Scenario.model_fields["robot"].default  # the issue's sweep: one robot
-    drops, pushes = ([p for p in load_scenarios([shipped / name]) if p.scenario.robot == default]
+    drops, pushes = ([p for p in load([shipped / name]) if p.scenario.robot == default]
                      for name in ("drop.yaml", "push.yaml"))
     mixed = [p for pair in zip(drops, pushes) for p in pair] + drops[len(pushes):] + pushes[len(drops):]
     if runs // 4 > len(mixed):
@@ -228,10 +228,9 @@ def command_figures(point: ScenarioPoint, runs_list: list[int], repeats: int, sw
                     progress: Callable[[str], None]) -> dict[str, float]:
     """Whole commands in fresh interpreters: sweeps with 1 and 2 jobs (in turn, `sweep_repeats`
     pairs, medians), `run one` on the point with `stiff`, and the import time of `run one`'s modules."""
-    from fallbench.scenario import load_scenarios
 
     cli = [sys.executable, "-m", "fallbench.cli"]
-    index = next(i for i, p in enumerate(load_scenarios([point.source])) if p.label == point.label)
+    index = next(i for i, p in enumerate(load([point.source])) if p.label == point.label)
     figures: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as folder:
         for runs in runs_list:
@@ -250,8 +249,8 @@ def command_figures(point: ScenarioPoint, runs_list: list[int], repeats: int, sw
         figures["run_one_s"] = statistics.median(
             _command_s(cli + ["run", "one", point.source, "--point", str(index), "--policy", "stiff", "--results", str(Path(folder) / f"one{i}")])
             for i in range(repeats))
-    probe = ("import time; t = time.perf_counter(); import fallbench.cli, fallbench.runner, fallbench.episode, "
-             "fallbench.metrics; print(time.perf_counter() - t)")
+    probe = ("import time; t = time.perf_counter(); import fallbench.cli, fallbench.results.runner, fallbench.sim.episode, "
+             "fallbench.analysis.metrics; print(time.perf_counter() - t)")
     figures["import_s"] = statistics.median(
         float(subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True).stdout)
         for _ in range(repeats))
@@ -283,7 +282,7 @@ def store_figures(outcome: Outcome, runs: int, repeats: int, progress: Callable[
     """The results store at `runs` synthetic runs (a run folder each, as in a real store): adding
     one real run (its folder, then `consolidate`) at least 8 times, so the first tier merges once;
     a grouped SQL query; a read filtered by scenario and policy (pushed down)."""
-    from fallbench import store
+    from fallbench.results import store
 
     figures: dict[str, float] = {"store_runs": runs}
     with tempfile.TemporaryDirectory() as folder:
@@ -321,7 +320,7 @@ def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, 
     `e2e_runs` leaves those parts out."""
     figures: dict[str, Any] = {"scenario": point.label, "pre_impact": pre_impact, "cpu_count": os.cpu_count()}
     progress("warming up")
-    warm = run_episode(point.scenario, "stiff", pre_impact)
+    warm = simulate_named(point.scenario, "stiff", pre_impact)
     figures["physics_steps"] = warm.steps
     progress("pure physics")
     physics = _median_time(lambda: pure_physics_s(point, warm.steps), repeats)

@@ -20,15 +20,16 @@ from typing import Any
 
 import numpy as np
 
-from fallbench.control.adaptive_gains_qp import QPConfig, solve_step
+from fallbench.postimpact.adaptive_qp.qp import QPConfig, solve_step
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.dynamics.tasks.com import ComTask
-from fallbench.policies.base import GainPolicy, Observation
+from fallbench.postimpact.base import GainPolicy
+from fallbench.sim.controllers import Observation
 from fallbench.scenario import Scenario
-from fallbench.servo import ServoCommand
-from fallbench.world import World
+from fallbench.sim.servo import ServoCommand
+from fallbench.sim.world import World
 
 
 class AdaptiveQPPolicy(GainPolicy):
@@ -94,3 +95,6 @@ class AdaptiveQPPolicy(GainPolicy):
             "qp_failures": self.failures,
             "qp_steps": len(solved),
         }
+
+    def failure_times(self) -> list[float]:
+        return [float(r["t"]) for r in self.records if r.get("qp_solved", 1.0) == 0.0]

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallbench.control.reach import ReachPolyhedron
-from fallbench.control.surfaces import Surface
-from fallbench.vectors import UP, cross
+from fallbench.preimpact.reshape.reach import ReachPolyhedron
+from fallbench.preimpact.reshape.surfaces import Surface
+from fallbench.dynamics.vectors import UP, cross
 
 LOWEST_ANGLE = -math.pi / 6  # rad below the pivot's horizontal the shoulder may still travel
 

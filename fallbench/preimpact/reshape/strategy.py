@@ -1,5 +1,5 @@
 """`reshape`: posture reshaping and landing-point control of 002 Sec. IV / 000 Sec. IV
-(the controller itself is `fallbench.control.reshape.ReshapeController`)."""
+(the controller itself is `fallbench.preimpact.reshape.controller.ReshapeController`)."""
 
 from __future__ import annotations
 
@@ -8,12 +8,12 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from fallbench.control.reshape import PIVOTS, RESHAPE_PARAMS, ReshapeController
+from fallbench.preimpact.reshape.controller import PIVOTS, RESHAPE_PARAMS, ReshapeController
 from fallbench.dynamics.dense_qp import QP_SOLVERS
 from fallbench.preimpact.base import Strategy
 from fallbench.scenario import Scenario
-from fallbench.servo import ServoCommand
-from fallbench.world import World
+from fallbench.sim.servo import ServoCommand
+from fallbench.sim.world import World
 
 
 class ReshapeStrategy(Strategy):

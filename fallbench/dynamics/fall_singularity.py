@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from fallbench.vectors import cross
+from fallbench.dynamics.vectors import cross
 
 SINGULAR_SINE = float(np.sin(np.radians(10.0)))  # force within 10 deg of the lever arm: singular
 MIN_LEVER = 0.05  # m: joints closer than this to every impact point are not judged

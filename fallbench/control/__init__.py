@@ -1,1 +1,0 @@
-"""Whole-body control: Pinocchio model terms, tasks, and the adaptive-gain QP."""

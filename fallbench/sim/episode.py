@@ -1,0 +1,279 @@
+"""The control loop of one fall and the recorder of its time series.
+
+Physics at `physics_dt`, controller every `control_dt`: state -> fall detector -> pre-impact
+strategy -> impact detector -> gain policy -> servo references and gains written into the
+actuators. Everything the metrics need is recorded at the physics rate from MuJoCo's sensors
+(computed in C inside the step).
+
+Every motor switches to the gain policy at the first impact, unless the pre-impact strategy
+switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
+the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
+lands, when all switch. Contacts the strategy planned (a footstep) are not impacts.
+
+Impacts are watched inside the physics substeps: after fall detection, and until every motor has
+switched, a body touching for the first time (its contact sensor's "found" column) ends the substeps
+and runs a control step at once, so the policy takes over one physics step after first contact
+instead of at the next 5 ms control step. The regular control grid then resumes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import mujoco
+import numpy as np
+
+from fallbench.dynamics.model import pinocchio_for, select_motors
+from fallbench.scenario import Scenario
+from fallbench.sim.controllers import Observation, PostImpactController, PreImpactController
+from fallbench.sim.events import CapturePointDetector, FallDetector, FreefallDetector, ImpactDetector, TiltDetector
+from fallbench.sim.impacts import ImpactLog
+from fallbench.sim.recorder import Recording, Trace
+from fallbench.sim.servo import ServoCommand, write_servo
+from fallbench.sim.support import FootSupport
+from fallbench.sim.world import World, initial_state
+
+LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
+DIVERGENCE_WARNINGS = np.array([int(mujoco.mjtWarning.mjWARN_BADQACC), int(mujoco.mjtWarning.mjWARN_BADQVEL),
+                                int(mujoco.mjtWarning.mjWARN_BADQPOS)])
+
+
+# Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
+# MUJOCO_LOG.TXT in the working folder) would only clutter a sweep's output.
+mujoco.set_mju_user_warning(lambda message: None)
+
+
+def make_fall_detector(scenario: Scenario) -> FallDetector:
+    detection = scenario.detection
+    return FallDetector(detection.method, CapturePointDetector(detection.capture_point_margin),
+                        TiltDetector(detection.tilt), FreefallDetector(detection.freefall, detection.freefall_hold))
+
+
+def _push_force(world: World, scenario: Scenario) -> tuple[int, np.ndarray] | None:
+    push = scenario.push
+    if push is None or push.force == 0:
+        return None
+    body = world.model.body(push.body or world.robot.torso_body).id
+    heading = math.radians(push.direction)
+    force = push.force * np.array([math.cos(heading), math.sin(heading), 0.0])
+    return body, np.concatenate([force, np.zeros(3)])
+
+
+def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) -> ServoCommand:
+    """Switched motors follow the gain policy, the others the pre-impact command."""
+    if switched.all():
+        return policy
+    return ServoCommand(*(np.where(switched, a, b) for a, b in zip(
+        (policy.kp, policy.kd, policy.q_ref, policy.qd_ref), (other.kp, other.kd, other.q_ref, other.qd_ref))))
+
+
+class Takeover:
+    """Which motors follow the gain policy, since when, and toward which pose (002 Sec. V: q_ref is
+    the configuration just before impact, taken per motor when it switches)."""
+
+    def __init__(self, nu: int) -> None:
+        self.switched = np.zeros(nu, dtype=bool)
+        self.time = np.full(nu, np.nan)  # s per motor, NaN = never
+        self.q_ref: np.ndarray | None = None
+
+    def switch(self, now: np.ndarray, q: np.ndarray, t: float) -> bool:
+        """Switch the motors of `now` that have not switched yet; True if any did."""
+        fresh = now & ~self.switched
+        if not fresh.any():
+            return False
+        self.q_ref = np.where(fresh, q, self.q_ref if self.q_ref is not None else q)
+        self.time[fresh] = t
+        self.switched = now
+        return True
+
+
+class Episode:
+    """One fall of a built world under a pre-impact strategy and a gain policy (DESIGN.md's data
+    path): each control step runs the fall detector, the strategy, the impact detector, the gain
+    policy and the servo, then the physics substeps record the trace."""
+
+    def __init__(self, world: World, scenario: Scenario, policy: PostImpactController, strategy: PreImpactController,
+                 pre_impact: str) -> None:
+        self.world, self.scenario, self.policy, self.strategy, self.pre_impact = world, scenario, policy, strategy, pre_impact
+        model = world.model
+        self.data = data = initial_state(world, scenario)
+        self.per_control = scenario.physics_steps_per_control
+        self.n_steps = math.ceil(scenario.duration / scenario.control_dt - 1e-9) * self.per_control
+        self.trace = Trace(self.n_steps, model.nsensordata, model.nq, model.nv, model.nu)
+        self.impacts = ImpactLog(world)
+        self.pinocchio = pinocchio_for(world)
+        self.landed_bodies = {b for g in LANDED_GROUPS for b in world.robot.body_groups.get(g, ())}
+        self.fall, self.impact, self.support = make_fall_detector(scenario), ImpactDetector(), FootSupport(world)
+        self.takeover = Takeover(model.nu)
+        self.push = _push_force(world, scenario)
+        self.pre_command = ServoCommand(world.default_kp, world.default_kd, data.qpos[world.qpos_adr].copy(), np.zeros(model.nu))
+        self.policy_command: ServoCommand | None = None
+        self.written = self.pre_command
+        write_servo(model, data, self.written)  # before the first forward pass: the cached model holds the last episode's gains
+        self.trace.changes.append((0, self.written))
+        mujoco.mj_forward(model, data)
+        self.sensor_row = data.sensordata.copy()
+        self.torso_rotation = np.zeros(9)
+        self.controller_ms: list[float] = []
+        self.seen = np.zeros(len(world.contact_bodies), dtype=bool)  # bodies in contact at detection or since
+        self.unplanned: np.ndarray | bool = True  # bodies whose contact would be an impact (not a planned footstep)
+        self.step = self.since = 0  # physics step now, and at the previous control step
+        self.physics_s, self.status, self.error = 0.0, "ok", ""
+
+    def run(self) -> Recording:
+        while self.step < self.n_steps:
+            t = self.step * self.scenario.physics_dt
+            started = time.perf_counter()
+            self.detect_fall(t)
+            switched_now = False
+            found = self.found() if self.fall.time is not None else self.seen
+            if self.fall.time is not None:
+                switched_now = self.detect_impacts(t, found)
+                self.strategy_step(t)
+            command = self.command(t, found, switched_now)
+            self.controller_ms.append((time.perf_counter() - started) * 1e3 if self.fall.time is not None else 0.0)
+            self.write(command)
+            self.apply_push(t)
+            self.physics()
+            if self.diverged():
+                break
+        return self.recording()
+
+    def found(self) -> np.ndarray:
+        """Per contact body: whether its contact sensor found a contact since the last control step."""
+        rows = self.trace.sensordata[self.since:self.step] if self.step else self.sensor_row[None]
+        return np.take(rows, self.world.contact_found_columns, axis=1).max(axis=0) > 0
+
+    def names(self, mask: np.ndarray) -> set[str]:
+        return {self.world.contact_bodies[i] for i in np.flatnonzero(mask)}
+
+    def detect_fall(self, t: float) -> None:
+        """Feed the fall detectors (every one is watched until the first impact); at detection,
+        note the bodies already touching and start the strategy."""
+        if self.impact.time is not None or self.fall.all_fired:
+            return
+        detected = self.fall.time is not None
+        found, world = self.found(), self.world
+        mujoco.mju_copy(self.torso_rotation, self.data.xmat[world.torso_body])
+        if self.fall.update(t, world.robot.torso_frame(self.torso_rotation.reshape(3, 3)), world.sensor(self.sensor_row, "imu_acc"),
+                            world.sensor(self.sensor_row, "com_pos"), world.sensor(self.sensor_row, "com_vel"),
+                            self.support.points(self.data, found)) and not detected:
+            self.seen = found
+            self.impact.start(self.names(found))
+            self.strategy.start(t, self.data)
+
+    def detect_impacts(self, t: float, found: np.ndarray) -> bool:
+        """Log bodies touching for the first time since detection (planned footsteps excepted) and
+        switch their chains' motors (all motors, unless the strategy switches per chain); True if
+        any motor switched."""
+        planned = self.strategy.planned_contacts()
+        self.unplanned = ~np.isin(self.world.contact_bodies, list(planned)) if planned else True
+        fresh = found & ~self.seen & self.unplanned
+        if not fresh.any():
+            return False
+        self.seen |= fresh
+        new = self.names(fresh)
+        self.impact.update(t, new)
+        self.impacts.update(t, new, self.data, self.data.qpos, self.data.qvel)
+        takeover = self.takeover
+        if self.impact.time is None or takeover.switched.all():
+            return False
+        everything = not self.strategy.per_chain_switching or new & self.landed_bodies
+        now = np.ones(len(takeover.switched), dtype=bool) if everything else takeover.switched.copy()
+        now[select_motors(self.pinocchio, new, self.world.joint_names)] = True
+        return takeover.switch(now, self.data.qpos[self.world.qpos_adr], t)
+
+    def strategy_step(self, t: float) -> None:
+        """The strategy's own command on its control grid, until every motor has switched."""
+        if not self.takeover.switched.all() and self.step % self.per_control == 0:
+            self.pre_command = self.strategy.step(t, self.data) or self.pre_command
+
+    def command(self, t: float, found: np.ndarray, switched_now: bool) -> ServoCommand:
+        """The servo command: the gain policy's on switched motors, the strategy's on the others."""
+        takeover, policy = self.takeover, self.policy
+        if not takeover.switched.any():
+            return self.pre_command
+        if switched_now or not policy.static or self.policy_command is None:
+            world, qpos, qvel = self.world, self.data.qpos, self.data.qvel
+            touching = self.names(found) if policy.needs_contacts else set()
+            observation = Observation(t, qpos.copy(), qvel.copy(), qpos[world.qpos_adr], qvel[world.qvel_adr], touching, self.data)
+            assert takeover.q_ref is not None
+            self.policy_command = policy.after_impact(observation, takeover.q_ref)
+        return _compose(takeover.switched, self.policy_command, self.pre_command)
+
+    def write(self, command: ServoCommand) -> None:
+        if command is not self.written:
+            write_servo(self.world.model, self.data, command)
+            self.written = command
+            self.trace.changes.append((self.step, command))
+
+    def apply_push(self, t: float) -> None:
+        if self.push is not None:
+            push = self.scenario.push
+            active = push.start <= t < push.start + push.duration
+            self.data.xfrc_applied[self.push[0]] = self.push[1] if active else 0.0
+
+    def physics(self) -> None:
+        """The physics substeps up to the next control step, recorded; until every motor has
+        switched, a body touching for the first time ends them at once, so that the policy takes
+        over at the next physics step."""
+        self.since = self.step
+        watching = self.fall.time is not None and not self.takeover.switched.all()
+        watched = self.world.contact_found_columns[~self.seen & self.unplanned] if watching else None
+        model, data, trace = self.world.model, self.data, self.trace
+        for _ in range(self.per_control - self.step % self.per_control):
+            trace.qpos[self.step] = data.qpos
+            trace.qvel[self.step] = data.qvel
+            stepped = time.perf_counter()
+            mujoco.mj_step(model, data)
+            self.physics_s += time.perf_counter() - stepped
+            # sensors and actuator forces are computed inside the step, from the state before it
+            trace.sensordata[self.step] = data.sensordata
+            trace.actuator_force[self.step] = data.actuator_force
+            self.step += 1
+            if watched is not None and data.sensordata[watched].any():
+                break
+        self.sensor_row = trace.sensordata[self.step - 1]
+
+    def diverged(self) -> bool:
+        """A divergence warning or a NaN or inf anywhere: the run stops and is stored as diverged."""
+        counts = self.data.warning.number
+        if not counts[DIVERGENCE_WARNINGS].any() and math.isfinite(self.data.qacc.sum()):
+            return False
+        self.status = "diverged"
+        self.error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if counts[w]) or "non-finite state"
+        return True
+
+    def landing_errors(self) -> dict[str, float]:
+        """m per arm side: from the point the strategy aimed the hand at to its first contact."""
+        errors: dict[str, float] = {}
+        for side in self.world.robot.arms:
+            contact = self.impacts.side_first_contact(side)
+            target = self.strategy.landing_target(side, contact[1].t) if contact else None
+            if contact is not None and target is not None:
+                errors[side] = float(np.linalg.norm(contact[1].point - target))
+        return errors
+
+    def recording(self) -> Recording:
+        step, trace, scenario = self.step, self.trace, self.scenario
+        held = trace.held(step, self.world.model.nu)
+        return Recording(
+            world=self.world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=trace.sensordata[:step],
+            qpos=trace.qpos[:step], qvel=trace.qvel[:step], actuator_force=trace.actuator_force[:step],
+            kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
+            fall_time=self.fall.time, fall_reason=self.fall.reason, fall_times=dict(self.fall.times),
+            impact_time=self.impact.time, impact_bodies=self.impact.bodies,
+            controller_ms=np.array(self.controller_ms), physics_s=self.physics_s, pre_impact=self.pre_impact,
+            impact_events=self.impacts.events, contact_times={body: c.t for body, c in self.impacts.first_contacts.items()},
+            landing_errors=self.landing_errors(), policy_stats=self.policy.stats() | self.strategy.stats(), strategy=self.strategy,
+            switch_time=self.takeover.time, policy_failure_times=self.policy.failure_times(), steps=step,
+            status=self.status, error=self.error,
+        )
+
+
+def run_episode(world: World, scenario: Scenario, policy: PostImpactController, strategy: PreImpactController,
+                pre_impact: str = "none") -> Recording:
+    """Simulate one fall; `world` is built from `scenario` (with the baseline gains the run uses) and
+    `pre_impact` names the strategy in the recording."""
+    return Episode(world, scenario, policy, strategy, pre_impact).run()

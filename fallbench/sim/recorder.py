@@ -1,0 +1,76 @@
+"""The record of one fall: physics-rate time series, the servo commands held over them, and the
+event times. Strategies compute their outcome metrics from it (`OutcomeMetrics`), so they type
+the recording by this module, not by the episode loop that fills it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from fallbench.scenario import Scenario
+from fallbench.sim.impacts import ImpactEvent
+from fallbench.sim.servo import ServoCommand
+from fallbench.sim.world import World
+
+
+class OutcomeMetrics(Protocol):
+    """What the metrics ask of the pre-impact strategy that ran: its own outcome figures."""
+
+    def metrics(self, recording: Recording) -> dict[str, Any]:
+        """Per-episode outcome figures computed after the run from its recording."""
+
+
+@dataclass
+class Recording:
+    """Time series of one episode: physics-rate arrays, control-rate gains, and event times."""
+
+    world: World
+    scenario: Scenario
+    time: np.ndarray  # s, (steps,)
+    sensordata: np.ndarray  # (steps, nsensordata), at the start of each physics step
+    qpos: np.ndarray  # (steps, nq)
+    qvel: np.ndarray  # (steps, nv)
+    actuator_force: np.ndarray  # Nm, (steps, nu), after the torque limit
+    kp: np.ndarray  # Nm/rad held over each physics step, (steps, nu)
+    kd: np.ndarray  # Nms/rad, (steps, nu)
+    q_ref: np.ndarray  # rad, (steps, nu)
+    qd_ref: np.ndarray  # rad/s, (steps, nu)
+    fall_time: float | None
+    fall_reason: str
+    fall_times: dict[str, float]  # s, when each detector fired (selected or not), up to the first impact
+    impact_time: float | None  # s, control step at which the policy switched (the takeover)
+    impact_bodies: list[str]
+    controller_ms: np.ndarray  # ms per control step spent in the strategy and the policy
+    switch_time: np.ndarray  # s per motor at which it switched to the gain policy, NaN = never
+    physics_s: float = 0.0  # s of wall time inside mj_step
+    pre_impact: str = "none"
+    impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
+    contact_times: dict[str, float] = field(default_factory=dict)  # s, first contact of each body after the fall was detected
+    landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
+    policy_stats: dict[str, float] = field(default_factory=dict)
+    strategy: OutcomeMetrics | None = None  # the pre-impact strategy, for its own metrics
+    policy_failure_times: list[float] = field(default_factory=list)  # s, control steps whose policy QP failed
+    steps: int = 0
+    status: str = "ok"
+    error: str = ""
+
+
+class Trace:
+    """The physics-rate arrays of an episode, filled step by step, and the servo changes."""
+
+    def __init__(self, n_steps: int, nsensordata: int, nq: int, nv: int, nu: int) -> None:
+        self.sensordata = np.zeros((n_steps, nsensordata))
+        self.qpos = np.zeros((n_steps, nq))
+        self.qvel = np.zeros((n_steps, nv))
+        self.actuator_force = np.zeros((n_steps, nu))
+        self.changes: list[tuple[int, ServoCommand]] = []  # (physics step, command) where the servo changed
+
+    def held(self, n_steps: int, nu: int) -> np.ndarray:
+        """(4, n_steps, nu) kp, kd, q_ref, qd_ref per physics step from the steps where they changed."""
+        gains = np.empty((4, n_steps, nu))
+        ends = [k for k, _ in self.changes[1:]] + [n_steps]
+        for (start, command), end in zip(self.changes, ends):
+            gains[:, start:end] = np.stack([command.kp, command.kd, command.q_ref, command.qd_ref])[:, None, :]
+        return gains
