@@ -4,22 +4,42 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable, Optional
 
 import typer
 
 from fallbench.robots import DEFAULT_ROBOT
 from fallbench.scenario import ScenarioError, ScenarioPoint
 
-SHIPPED = [Path("scenarios/drop.yaml"), Path("scenarios/push.yaml"), Path("scenarios/obstacles.yaml"),
-           Path("scenarios/clutter.yaml"), Path("scenarios/direction.yaml"), Path("scenarios/random.yaml")]
-SUMMARY_COLUMNS = ["imu_peak_z", "knee_limit_margin", "torque_ratio_max", "torque_demand_ratio_max",
-                   "joint_limit_hits", "contact_force_peak", "contact_force_peak_head", "contact_force_peak_torso",
-                   "first_impact_safe", "landing_error", "fell"]
+SHIPPED = [
+    Path("scenarios/drop.yaml"),
+    Path("scenarios/push.yaml"),
+    Path("scenarios/obstacles.yaml"),
+    Path("scenarios/clutter.yaml"),
+    Path("scenarios/direction.yaml"),
+    Path("scenarios/random.yaml"),
+]
+SUMMARY_COLUMNS = [
+    "imu_peak_z",
+    "knee_limit_margin",
+    "torque_ratio_max",
+    "torque_demand_ratio_max",
+    "joint_limit_hits",
+    "contact_force_peak",
+    "contact_force_peak_head",
+    "contact_force_peak_torso",
+    "first_impact_safe",
+    "landing_error",
+    "fell",
+]
 
-app = typer.Typer(help="Compare humanoid fall-control strategies in MuJoCo: sweep scenarios, store metrics.",
-                  no_args_is_help=True, pretty_exceptions_enable=False, add_completion=False)
+app = typer.Typer(
+    help="Compare humanoid fall-control strategies in MuJoCo: sweep scenarios, store metrics.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
 run_app = typer.Typer(help="Simulate falls.", no_args_is_help=True)
 scenarios_app = typer.Typer(help="Check and export scenario files.", no_args_is_help=True)
 app.add_typer(run_app, name="run")
@@ -84,8 +104,15 @@ def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> Sc
         key, _, value = selector.partition("=")
         if not value:
             fail(f"--point {selector!r}: expected an index or key=value")
-        chosen = [p for p in chosen if (_same(p.swept[key], value) if key in p.swept
-                                        else key == "robot" and _same(p.scenario.robot, value))]
+        chosen = [
+            p
+            for p in chosen
+            if (
+                _same(p.swept[key], value)
+                if key in p.swept
+                else key == "robot" and _same(p.scenario.robot, value)
+            )
+        ]
     if len(chosen) != 1:
         labels = "\n  ".join(f"{i}: {p.label}" for i, p in enumerate(points))
         fail(f"{file}: --point selects {len(chosen)} points, need exactly 1; the points are:\n  {labels}")
@@ -101,17 +128,31 @@ def _same(swept: object, text: str) -> bool:
 
 @run_app.command("sweep")
 def run_sweep_command(
-    files: list[Path] = typer.Argument(None, help="Scenario YAML files (default: the shipped drop, push, obstacle, clutter, direction and randomised scenarios)."),
+    files: list[Path] = typer.Argument(
+        None,
+        help="Scenario YAML files (default: the shipped drop, push, obstacle, clutter, direction and randomised scenarios).",
+    ),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
-    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."),
-    backend: str = typer.Option("auto", help="auto: this process for one job or one run, else fork; fork: workers forked from this process (they start with its imports and compiled worlds); loky: fresh processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra)."),
-    scheduler: str = typer.Option(None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster of --jobs workers)."),
+    jobs: int = typer.Option(
+        2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."
+    ),
+    backend: str = typer.Option(
+        "auto",
+        help="auto: this process for one job or one run, else fork; fork: workers forked from this process (they start with its imports and compiled worlds); loky: fresh processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra).",
+    ),
+    scheduler: str = typer.Option(
+        None,
+        help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster of --jobs workers).",
+    ),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     reports: Path = typer.Option(Path("reports"), help="Folder for the sweep summary table."),
     strict: bool = typer.Option(False, help="Exit 1 at the end if any run failed or diverged."),
     progress: bool = typer.Option(True, help="Show a progress bar."),
-    robot: Optional[str] = typer.Option(None, help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see the README)."),
+    robot: str | None = typer.Option(
+        None,
+        help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see the README).",
+    ),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -128,16 +169,29 @@ def run_sweep_command(
         fail("--backend dask needs Dask's distributed scheduler: pip install 'fallbench[dask]'")
     points = _load(files or SHIPPED, _robot(robot))
     specs = expand(points, _policies(policies), _strategies(pre_impact))
-    table = run_sweep(specs, results, jobs=jobs, progress=progress and sys.stderr.isatty(), backend=backend, scheduler=scheduler)
+    table = run_sweep(
+        specs,
+        results,
+        jobs=jobs,
+        progress=progress and sys.stderr.isatty(),
+        backend=backend,
+        scheduler=scheduler,
+    )
     keys = ["robot", "scenario", "pre_impact", "policy"]
     summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())
-    summary.insert(1, "failed", table[table.status != "ok"].groupby(keys).size().reindex(summary.index, fill_value=0))
+    summary.insert(
+        1, "failed", table[table.status != "ok"].groupby(keys).size().reindex(summary.index, fill_value=0)
+    )
     reports.mkdir(parents=True, exist_ok=True)
-    (reports / "sweep_summary.md").write_text("# Sweep summary (medians over runs)\n\n" + summary.round(3).to_markdown() + "\n")
+    (reports / "sweep_summary.md").write_text(
+        "# Sweep summary (medians over runs)\n\n" + summary.round(3).to_markdown() + "\n"
+    )
     typer.echo(summary.round(3).to_string())
     failed = table[table.status != "ok"]
-    typer.echo(f"\n{len(table)} runs in {results}/metrics/, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md")
+    typer.echo(
+        f"\n{len(table)} runs in {results}/metrics/, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md"
+    )
     for _, row in failed.iterrows():
         typer.echo(f"  {row.status}: {row.pre_impact}/{row.policy} {row.point}: {row.error}", err=True)
     if strict and len(failed):
@@ -149,7 +203,9 @@ def run_one_command(
     file: Path = typer.Argument(..., help="Scenario YAML file."),
     point: list[str] = typer.Option([], help="Sweep point: an index, or key=value (repeatable)."),
     policy: str = typer.Option("stiff", help="Gain policy."),
-    pre_impact: str = typer.Option("none", help="Pre-impact strategy (none, reshape, direction, or a plugin's)."),
+    pre_impact: str = typer.Option(
+        "none", help="Pre-impact strategy (none, reshape, direction, or a plugin's)."
+    ),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
 ) -> None:
     """Run one case, store it, and print its metrics."""
@@ -171,7 +227,10 @@ def validate_command(files: list[Path] = typer.Argument(..., help="Scenario YAML
         points = _load([file])
         robots = sorted({p.scenario.robot for p in points})
         defaulted = any("robot" not in p.scenario.model_fields_set for p in points)
-        typer.echo(f"{file}: ok, {len(points)} points, robot {', '.join(robots)}" + (" (default: no `robot` key)" if defaulted else ""))
+        typer.echo(
+            f"{file}: ok, {len(points)} points, robot {', '.join(robots)}"
+            + (" (default: no `robot` key)" if defaulted else "")
+        )
 
 
 @scenarios_app.command("export")
@@ -195,15 +254,31 @@ def export_command(
 @app.command("bench")
 def bench_command(
     scenario: Path = typer.Option(Path("scenarios/drop.yaml"), help="Scenario file to measure on."),
-    point: list[str] = typer.Option(["initial.height=1.0", f"robot={DEFAULT_ROBOT}"], help="Sweep point of the file: an index, or key=value (repeatable; `robot` matches the point's robot)."),
+    point: list[str] = typer.Option(
+        ["initial.height=1.0", f"robot={DEFAULT_ROBOT}"],
+        help="Sweep point of the file: an index, or key=value (repeatable; `robot` matches the point's robot).",
+    ),
     pre_impact: str = typer.Option("none", help="Pre-impact strategy of the measured episodes."),
     repeats: int = typer.Option(5, min=1, help="Repeats per measurement (medians are reported)."),
-    sweep_runs: int = typer.Option(48, min=4, help="Runs in the 1-job vs 2-job throughput sweep (fewer: the last long run alone on one worker weighs more)."),
+    sweep_runs: int = typer.Option(
+        48,
+        min=4,
+        help="Runs in the 1-job vs 2-job throughput sweep (fewer: the last long run alone on one worker weighs more).",
+    ),
     out: Path = typer.Option(Path("reports/bench.md"), help="Markdown table to write."),
-    json_path: Optional[Path] = typer.Option(None, "--json", help="Also write every figure as one flat JSON object."),
-    store: int = typer.Option(100_000, "--store", min=0, help="Runs in the synthetic results store measured (0: skip)."),
-    e2e_runs: str = typer.Option("20,100", help="Comma-separated sizes of the whole-command sweeps, 1 vs 2 jobs (multiples of 4, at most 100; empty: skip)."),
-    e2e_repeats: int = typer.Option(1, min=1, help="Pairs (1 job, 2 jobs) per whole-command sweep size (medians)."),
+    json_path: Path | None = typer.Option(
+        None, "--json", help="Also write every figure as one flat JSON object."
+    ),
+    store: int = typer.Option(
+        100_000, "--store", min=0, help="Runs in the synthetic results store measured (0: skip)."
+    ),
+    e2e_runs: str = typer.Option(
+        "20,100",
+        help="Comma-separated sizes of the whole-command sweeps, 1 vs 2 jobs (multiples of 4, at most 100; empty: skip).",
+    ),
+    e2e_repeats: int = typer.Option(
+        1, min=1, help="Pairs (1 job, 2 jobs) per whole-command sweep size (medians)."
+    ),
 ) -> None:
     """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store.
 
@@ -222,8 +297,16 @@ def bench_command(
         fail(f"--e2e-runs {e2e_runs!r}: expected comma-separated numbers of runs")
     if any(n < 4 or n > 100 or n % 4 for n in sizes):
         fail(f"--e2e-runs {e2e_runs!r}: each size must be a multiple of 4 between 4 and 100")
-    figures = run_bench(chosen, _strategies(pre_impact)[0], repeats, sweep_runs, progress=lambda m: typer.echo(f"bench: {m}", err=True),
-                        store_runs=store, e2e_runs=sizes, e2e_repeats=e2e_repeats)
+    figures = run_bench(
+        chosen,
+        _strategies(pre_impact)[0],
+        repeats,
+        sweep_runs,
+        progress=lambda m: typer.echo(f"bench: {m}", err=True),
+        store_runs=store,
+        e2e_runs=sizes,
+        e2e_repeats=e2e_repeats,
+    )
     table = markdown(figures)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(table)
@@ -237,7 +320,9 @@ def bench_command(
 @app.command("report")
 def report_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
-    out: Path = typer.Option(Path("reports"), help="Folder for figures (PNG, SVG), index.html and summary.md."),
+    out: Path = typer.Option(
+        Path("reports"), help="Folder for figures (PNG, SVG), index.html and summary.md."
+    ),
     progress: bool = typer.Option(True, help="Show a progress bar."),
 ) -> None:
     """Draw the papers' figures per drop/push point, sweep comparisons and the claims table."""
@@ -255,12 +340,21 @@ def report_command(
 
 @app.command("render")
 def render_command(
-    run_id: str = typer.Argument(..., help="Run id (or a unique prefix of one), as `fallbench results --columns run_id,point,policy` lists them."),
-    vs: Optional[str] = typer.Option(None, "--vs", help="A second run, shown side by side on the same clock and camera (e.g. none vs reshape)."),
+    run_id: str = typer.Argument(
+        ...,
+        help="Run id (or a unique prefix of one), as `fallbench results --columns run_id,point,policy` lists them.",
+    ),
+    vs: str | None = typer.Option(
+        None,
+        "--vs",
+        help="A second run, shown side by side on the same clock and camera (e.g. none vs reshape).",
+    ),
     out: Path = typer.Option(Path("fall.mp4"), help="Video to write: .mp4 (H.264) or .gif."),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     fps: int = typer.Option(25, min=1, max=100, help="Frames per second of the video."),
-    speed: float = typer.Option(1.0, min=0.05, max=4.0, help="Playback speed: 0.25 = four times slower than real time."),
+    speed: float = typer.Option(
+        1.0, min=0.05, max=4.0, help="Playback speed: 0.25 = four times slower than real time."
+    ),
 ) -> None:
     """Render a stored fall with MuJoCo's offscreen renderer (EGL on headless Linux) as a video."""
     from fallbench.report.render import RenderUnavailable, ReplayMissing, video
@@ -277,16 +371,25 @@ def render_command(
 @app.command("results")
 def results_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
-    where: Optional[str] = typer.Option(None, help="pandas query, e.g. \"policy == 'zero' and imu_peak_z > 300\"."),
-    columns: str = typer.Option("point,policy,status,imu_peak_z,knee_limit_margin,torque_demand_ratio_max,fell",
-                                help="Comma-separated columns."),
+    where: str | None = typer.Option(
+        None, help="pandas query, e.g. \"policy == 'zero' and imu_peak_z > 300\"."
+    ),
+    columns: str = typer.Option(
+        "point,policy,status,imu_peak_z,knee_limit_margin,torque_demand_ratio_max,fell",
+        help="Comma-separated columns.",
+    ),
     fmt: str = typer.Option("table", "--format", help="table, csv or json."),
     failed: bool = typer.Option(False, help="Only failed or diverged runs, with their errors."),
-    scenario: Optional[str] = typer.Option(None, help="Comma-separated scenario names (read from the store by push-down)."),
-    policy: Optional[str] = typer.Option(None, help="Comma-separated policies."),
-    pre_impact: Optional[str] = typer.Option(None, help="Comma-separated pre-impact strategies."),
-    robot: Optional[str] = typer.Option(None, help="Comma-separated robots."),
-    sql: Optional[str] = typer.Option(None, help="SQL on the view `runs` (DuckDB), e.g. \"SELECT policy, median(imu_peak_z) FROM runs GROUP BY policy\"; replaces the other selection options."),
+    scenario: str | None = typer.Option(
+        None, help="Comma-separated scenario names (read from the store by push-down)."
+    ),
+    policy: str | None = typer.Option(None, help="Comma-separated policies."),
+    pre_impact: str | None = typer.Option(None, help="Comma-separated pre-impact strategies."),
+    robot: str | None = typer.Option(None, help="Comma-separated robots."),
+    sql: str | None = typer.Option(
+        None,
+        help='SQL on the view `runs` (DuckDB), e.g. "SELECT policy, median(imu_peak_z) FROM runs GROUP BY policy"; replaces the other selection options.',
+    ),
 ) -> None:
     """List runs and metrics from the results store (runs stored since the last sweep are added first)."""
     from fallbench.results.store import consolidate, load_metrics, query
@@ -299,7 +402,14 @@ def results_command(
             columns = ",".join(map(str, table.columns))
         else:
             filters = {"scenario": scenario, "policy": policy, "pre_impact": pre_impact, "robot": robot}
-            table = load_metrics(results, **{k: [v.strip() for v in text.split(",") if v.strip()] for k, text in filters.items() if text})
+            table = load_metrics(
+                results,
+                **{
+                    k: [v.strip() for v in text.split(",") if v.strip()]
+                    for k, text in filters.items()
+                    if text
+                },
+            )
     except FileNotFoundError as exc:
         fail(str(exc))
     except ValueError as exc:
@@ -329,7 +439,9 @@ def results_command(
 
 @app.command("check")
 def check_command(
-    suite: list[Path] = typer.Option([Path("scenarios/ci.yaml")], help="Scenario files of the regression suite."),
+    suite: list[Path] = typer.Option(
+        [Path("scenarios/ci.yaml")], help="Scenario files of the regression suite."
+    ),
     baseline: Path = typer.Option(Path("baselines/ci.csv"), help="Baseline metrics (CSV)."),
     tolerances: Path = typer.Option(Path("baselines/tolerances.yaml"), help="Per-metric tolerances (YAML)."),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
@@ -345,7 +457,14 @@ def check_command(
     running anything when the baseline is missing or corrupt (a NaN, an infinite or non-numeric
     value, a missing column).
     """
-    from fallbench.results.regress import BaselineError, baseline_frame, compare, load_tolerances, read_baseline, write_baseline
+    from fallbench.results.regress import (
+        BaselineError,
+        baseline_frame,
+        compare,
+        load_tolerances,
+        read_baseline,
+        write_baseline,
+    )
     from fallbench.results.runner import expand, run_sweep
 
     try:
@@ -371,7 +490,9 @@ def check_command(
     if regressions:
         typer.echo(f"{'case':<40} {'metric':<24} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
         for r in regressions:
-            typer.echo(f"{r.case:<40} {r.metric:<24} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}")
+            typer.echo(
+                f"{r.case:<40} {r.metric:<24} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}"
+            )
         typer.echo(f"{len(regressions)} regression(s) against {baseline}", err=True)
         raise typer.Exit(1)
     typer.echo(f"check ok: {len(now)} cases x {len(limits)} metrics within tolerance of {baseline}")
@@ -379,5 +500,7 @@ def check_command(
 
 def main() -> None:
     app()
+
+
 if __name__ == "__main__":
     main()

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterator
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from fallbench.postimpact.adaptive_qp.policy import AdaptiveQPPolicy
 from fallbench.postimpact.base import GainPolicy
@@ -55,10 +56,14 @@ class Registry(dict):
         self.loaded = True
         for entry in entry_points(group=self.group):
             if dict.__contains__(self, entry.name):
-                raise ValueError(f"entry point {entry.name!r} = {entry.value!r} ({self.group}) clashes with a built-in name")
+                raise ValueError(
+                    f"entry point {entry.name!r} = {entry.value!r} ({self.group}) clashes with a built-in name"
+                )
             cls = entry.load()
             if not (isinstance(cls, type) and issubclass(cls, self.base)):
-                raise TypeError(f"entry point {entry.name!r} = {entry.value!r} ({self.group}) is not a {self.base.__name__} subclass")
+                raise TypeError(
+                    f"entry point {entry.name!r} = {entry.value!r} ({self.group}) is not a {self.base.__name__} subclass"
+                )
             dict.__setitem__(self, entry.name, cls)
 
     def __getitem__(self, name: str) -> Any:
@@ -94,24 +99,36 @@ class Registry(dict):
         return dict.items(self)
 
 
-POLICIES: dict[str, type[GainPolicy]] = Registry("fallbench.policies", GainPolicy, {
-    "stiff": StiffPolicy,
-    "oneshot": OneshotPolicy,
-    "zero": ZeroPolicy,
-    "adaptive_qp": AdaptiveQPPolicy,
-}, "policy")
+POLICIES: dict[str, type[GainPolicy]] = Registry(
+    "fallbench.policies",
+    GainPolicy,
+    {
+        "stiff": StiffPolicy,
+        "oneshot": OneshotPolicy,
+        "zero": ZeroPolicy,
+        "adaptive_qp": AdaptiveQPPolicy,
+    },
+    "policy",
+)
 
-STRATEGIES: dict[str, type[Strategy]] = Registry("fallbench.strategies", Strategy, {
-    "none": NoStrategy,
-    "reshape": ReshapeStrategy,
-    "direction": DirectionStrategy,
-}, "pre-impact strategy")
+STRATEGIES: dict[str, type[Strategy]] = Registry(
+    "fallbench.strategies",
+    Strategy,
+    {
+        "none": NoStrategy,
+        "reshape": ReshapeStrategy,
+        "direction": DirectionStrategy,
+    },
+    "pre-impact strategy",
+)
 
 
 def _parameter_problem(default: Any, value: Any) -> str | None:
     """Why a policy or strategy parameter's value does not fit its default's type, else None."""
     if isinstance(default, bool) or isinstance(default, str):
-        return None if isinstance(value, type(default)) else f"expected {type(default).__name__} (got {value!r})"
+        return (
+            None if isinstance(value, type(default)) else f"expected {type(default).__name__} (got {value!r})"
+        )
     if isinstance(default, (int, float)):
         number = isinstance(value, (int, float)) and not isinstance(value, bool)
         return None if number and math.isfinite(value) else f"expected a finite number (got {value!r})"
@@ -122,9 +139,13 @@ def check_controllers(scenario: Scenario) -> tuple[str, str] | None:
     """(key, reason) of the first unknown strategy or bad `policy_params` entry, else None."""
     for index, name in enumerate(scenario.pre_impact or ()):
         if name not in STRATEGIES:
-            return f"pre_impact.{index}", f"unknown pre-impact strategy {name!r} (known: {', '.join(STRATEGIES)})"
+            return (
+                f"pre_impact.{index}",
+                f"unknown pre-impact strategy {name!r} (known: {', '.join(STRATEGIES)})",
+            )
     parameters = {name: policy.defaults for name, policy in POLICIES.items()} | {
-        name: strategy.defaults for name, strategy in STRATEGIES.items() if strategy.defaults}
+        name: strategy.defaults for name, strategy in STRATEGIES.items() if strategy.defaults
+    }
     for policy, params in scenario.policy_params.items():
         if policy not in parameters:
             return f"policy_params.{policy}", f"unknown policy or strategy (known: {', '.join(parameters)})"
@@ -140,7 +161,10 @@ def check_controllers(scenario: Scenario) -> tuple[str, str] | None:
             if problem:
                 return f"policy_params.{policy}.{key}", problem
     if gain_scale(scenario) <= 0:
-        return "policy_params.stiff.gain_scale", f"the baseline gain scale must be > 0 (got {gain_scale(scenario)})"
+        return (
+            "policy_params.stiff.gain_scale",
+            f"the baseline gain scale must be > 0 (got {gain_scale(scenario)})",
+        )
     return None
 
 
@@ -163,7 +187,9 @@ def run_world(scenario: Scenario) -> World:
     scale = gain_scale(scenario)
     if scale == 1.0:
         return world
-    return dataclasses.replace(world, default_kp=world.default_kp * scale, default_kd=world.default_kd * scale)
+    return dataclasses.replace(
+        world, default_kp=world.default_kp * scale, default_kd=world.default_kd * scale
+    )
 
 
 def simulate_named(scenario: Scenario, policy: str, pre_impact: str = "none") -> Recording:

@@ -13,12 +13,21 @@ import hashlib
 import itertools
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Callable, Literal, Union
+from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
@@ -59,7 +68,9 @@ class Initial(Strict):
     posture: Name = DEFAULT_POSTURE  # a posture of the robot; every robot has `default`, its nominal stance
     height: Annotated[float, Field(ge=0, le=10)] = 0.0  # m between the feet and the floor at t = 0
     joints: dict[Name, Annotated[float, Field(ge=-6.3, le=6.3)]] = {}  # rad, overrides of the posture
-    joint_noise: Annotated[float, Field(ge=0, le=0.5)] = 0.0  # rad, half-width of a uniform offset per joint outside the legs, drawn from the seed
+    joint_noise: Annotated[float, Field(ge=0, le=0.5)] = (
+        0.0  # rad, half-width of a uniform offset per joint outside the legs, drawn from the seed
+    )
 
 
 class Push(Strict):
@@ -84,7 +95,7 @@ class Cylinder(Strict):
     height: Size  # m
 
 
-Obstacle = Annotated[Union[Box, Cylinder], Field(discriminator="type")]
+Obstacle = Annotated[Box | Cylinder, Field(discriminator="type")]
 
 
 DetectionMethod = Literal["capture_point", "tilt", "freefall"]
@@ -92,10 +103,18 @@ DetectionMethod = Literal["capture_point", "tilt", "freefall"]
 
 class Detection(Strict):
     # Detectors that may declare the fall; the earliest to fire wins (see fallbench/events.py).
-    method: Annotated[tuple[DetectionMethod, ...], Field(min_length=1)] = ("capture_point", "tilt", "freefall")
-    capture_point_margin: Annotated[float, Field(ge=-1, le=1)] = 0.02  # m the capture point must be outside the feet's support polygon
+    method: Annotated[tuple[DetectionMethod, ...], Field(min_length=1)] = (
+        "capture_point",
+        "tilt",
+        "freefall",
+    )
+    capture_point_margin: Annotated[float, Field(ge=-1, le=1)] = (
+        0.02  # m the capture point must be outside the feet's support polygon
+    )
     tilt: Annotated[float, Field(gt=0, lt=90)] = 15.0  # deg of torso tilt that declares a fall (000)
-    freefall: Annotated[float, Field(ge=0, le=9.81)] = 3.0  # m/s^2: accelerometer norm below this declares free fall
+    freefall: Annotated[float, Field(ge=0, le=9.81)] = (
+        3.0  # m/s^2: accelerometer norm below this declares free fall
+    )
     freefall_hold: Annotated[float, Field(ge=0, le=10)] = 0.02  # s the accelerometer must read free fall
 
     @field_validator("method", mode="before")
@@ -145,20 +164,30 @@ class Scenario(Strict):
     detection: Detection = Detection()
     # policy (or strategy) name -> parameter overrides: numbers, flags, names, or lists of them
     policy_params: dict[Name, dict[Name, ParamValue]] = {}
-    pre_impact: tuple[Name, ...] | None = None  # pins the strategies swept for this scenario (names checked in world.check_scenario)
+    pre_impact: tuple[Name, ...] | None = (
+        None  # pins the strategies swept for this scenario (names checked in world.check_scenario)
+    )
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
 
     @model_validator(mode="after")
-    def _rates(self) -> "Scenario":
+    def _rates(self) -> Scenario:
         if self.physics_dt > self.control_dt:
-            raise FieldProblem("physics_dt", f"physics_dt ({self.physics_dt} s) must not exceed control_dt ({self.control_dt} s)")
+            raise FieldProblem(
+                "physics_dt",
+                f"physics_dt ({self.physics_dt} s) must not exceed control_dt ({self.control_dt} s)",
+            )
         ratio = self.control_dt / self.physics_dt
         if abs(ratio - round(ratio)) > 1e-9:
-            raise FieldProblem("control_dt", f"control_dt ({self.control_dt} s) must be a multiple of physics_dt")
+            raise FieldProblem(
+                "control_dt", f"control_dt ({self.control_dt} s) must be a multiple of physics_dt"
+            )
         steps = self.duration / self.physics_dt
         if steps > MAX_STEPS_PER_RUN:
-            raise FieldProblem("duration", f"duration / physics_dt = {steps:,.0f} physics steps, over the budget of "
-                               f"{MAX_STEPS_PER_RUN:,} per run")
+            raise FieldProblem(
+                "duration",
+                f"duration / physics_dt = {steps:,.0f} physics steps, over the budget of "
+                f"{MAX_STEPS_PER_RUN:,} per run",
+            )
         return self
 
     @property
@@ -169,11 +198,17 @@ class Scenario(Strict):
 class ScenarioFile(Scenario):
     """A scenario file: a base scenario plus sweep, randomisation and seed repetition."""
 
-    randomize: dict[Name, tuple[Annotated[float, Field(ge=-1e6, le=1e6)], Annotated[float, Field(ge=-1e6, le=1e6)]]] = {}
+    randomize: dict[
+        Name, tuple[Annotated[float, Field(ge=-1e6, le=1e6)], Annotated[float, Field(ge=-1e6, le=1e6)]]
+    ] = {}
     sweep: dict[Name, Annotated[list[Any], Field(max_length=MAX_POINTS_PER_FILE)]] = {}
     seeds: Annotated[int, Field(ge=1, le=MAX_POINTS_PER_FILE)] = 1
-    layout_yaw: Degrees = 0.0  # deg: turns every obstacle about the world z axis through the origin (the robot)
-    sizes_for: Name | None = None  # robot the push forces and obstacle geometry are written for (scaled on others)
+    layout_yaw: Degrees = (
+        0.0  # deg: turns every obstacle about the world z axis through the origin (the robot)
+    )
+    sizes_for: Name | None = (
+        None  # robot the push forces and obstacle geometry are written for (scaled on others)
+    )
     per_robot: dict[Name, dict[Name, Any]] = {}  # robot -> dotted key -> value, applied after the scaling
 
 
@@ -197,7 +232,9 @@ class ScenarioPoint:
 
     @property
     def label(self) -> str:
-        parts = [f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith(("randomize:", SCALE_PREFIX))]
+        parts = [
+            f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith(("randomize:", SCALE_PREFIX))
+        ]
         if "robot" not in self.swept and self.scenario.robot != DEFAULT_ROBOT:
             parts.insert(0, f"robot={self.scenario.robot}")  # points of different robots never share a label
         return self.scenario.name + ("[" + ",".join(parts) + "]" if parts else "") + f"#s{self.scenario.seed}"
@@ -208,6 +245,7 @@ def _fmt(value: Any) -> str:
 
 
 # ---------------------------------------------------------------- YAML with line numbers
+
 
 def _line_of(doc: Any, loc: tuple[Any, ...]) -> int | None:
     """1-based line of the deepest node of `loc` that exists in the parsed YAML."""
@@ -229,7 +267,12 @@ def _read_text(path: Path) -> str:
     try:
         size = path.stat().st_size
         if size > MAX_FILE_BYTES:
-            raise ScenarioError(path, None, "", f"file too large ({size:,} bytes; a scenario file holds at most {MAX_FILE_BYTES:,})")
+            raise ScenarioError(
+                path,
+                None,
+                "",
+                f"file too large ({size:,} bytes; a scenario file holds at most {MAX_FILE_BYTES:,})",
+            )
         data = path.read_bytes()
     except OSError as exc:
         raise ScenarioError(path, None, "", f"cannot read file ({exc.strerror})") from None
@@ -240,13 +283,20 @@ def _read_text(path: Path) -> str:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
-        raise ScenarioError(path, line, "", f"not UTF-8 text (byte 0x{data[exc.start]:02x}): a scenario file is UTF-8 YAML text") from None
+        raise ScenarioError(
+            path,
+            line,
+            "",
+            f"not UTF-8 text (byte 0x{data[exc.start]:02x}): a scenario file is UTF-8 YAML text",
+        ) from None
 
 
 PLAIN_SCALARS = (str, int, float, bool, type(None), datetime.date)  # dates: implicit YAML timestamps
 
 
-def _check_tree(path: Path, node: Any, where: tuple[Any, ...] = (), line: int = 1, seen: set[int] | None = None) -> None:
+def _check_tree(
+    path: Path, node: Any, where: tuple[Any, ...] = (), line: int = 1, seen: set[int] | None = None
+) -> None:
     """Reject what plain scenario data never needs: tags (`!!python/...`, `!foo`, `!!binary`,
     `!!set`), aliases of mappings or lists (they multiply nodes), nesting deeper than MAX_NESTING,
     keys that are not plain scalars."""
@@ -254,9 +304,16 @@ def _check_tree(path: Path, node: Any, where: tuple[Any, ...] = (), line: int = 
     key = ".".join(map(str, where))
     if type(node) in (CommentedMap, CommentedSeq):
         if node.tag.value is not None:
-            raise ScenarioError(path, line, key, f"YAML tags ({node.tag.value}) are not allowed in scenario files")
+            raise ScenarioError(
+                path, line, key, f"YAML tags ({node.tag.value}) are not allowed in scenario files"
+            )
         if id(node) in seen:
-            raise ScenarioError(path, line, key, "YAML aliases (*name) of mappings or lists are not allowed in scenario files: write the value out")
+            raise ScenarioError(
+                path,
+                line,
+                key,
+                "YAML aliases (*name) of mappings or lists are not allowed in scenario files: write the value out",
+            )
         seen.add(id(node))
         if len(where) >= MAX_NESTING:
             raise ScenarioError(path, line, key, f"nested deeper than {MAX_NESTING} levels")
@@ -271,7 +328,11 @@ def _check_tree(path: Path, node: Any, where: tuple[Any, ...] = (), line: int = 
                 _check_tree(path, value, where + (index,), node.lc.item(index)[0] + 1, seen)
     elif not isinstance(node, PLAIN_SCALARS) or isinstance(node, TaggedScalar):
         tag = getattr(node, "tag", None)
-        what = f"YAML tags ({getattr(tag, 'value', tag)})" if tag is not None else f"YAML tags and special types (here a {type(node).__name__})"
+        what = (
+            f"YAML tags ({getattr(tag, 'value', tag)})"
+            if tag is not None
+            else f"YAML tags and special types (here a {type(node).__name__})"
+        )
         raise ScenarioError(path, line, key, f"{what} are not allowed in scenario files")
 
 
@@ -318,7 +379,9 @@ def _loc(err: Any) -> tuple[Any, ...]:
     return loc + (problem.key,) if isinstance(problem, FieldProblem) else loc
 
 
-def _validation_error(path: Path, doc: Any, exc: ValidationError, line_loc: tuple[Any, ...] = ()) -> ScenarioError:
+def _validation_error(
+    path: Path, doc: Any, exc: ValidationError, line_loc: tuple[Any, ...] = ()
+) -> ScenarioError:
     err = exc.errors()[0]
     loc = _loc(err)
     key = ".".join(str(p) for p in loc) or "(top level)"
@@ -341,7 +404,10 @@ def robot_scales(robot: str, sizes_for: str) -> dict[str, float]:
     """Factors that carry a file's sizes from robot `sizes_for` to `robot`: forces by the mass
     ratio (the same change of CoM velocity, F t / m), lengths by the ratio of standing heights."""
     target, reference = get_robot(robot), get_robot(sizes_for)
-    return {"force": target.mass / reference.mass, "length": target.standing_height / reference.standing_height}
+    return {
+        "force": target.mass / reference.mass,
+        "length": target.standing_height / reference.standing_height,
+    }
 
 
 def _scale_sizes(data: dict[str, Any], scales: dict[str, float]) -> None:
@@ -354,13 +420,16 @@ def _scale_sizes(data: dict[str, Any], scales: dict[str, float]) -> None:
             continue
         for key in ("pos", "size"):
             if isinstance(obstacle.get(key), list):
-                obstacle[key] = [v * scales["length"] if isinstance(v, (int, float)) else v for v in obstacle[key]]
+                obstacle[key] = [
+                    v * scales["length"] if isinstance(v, (int, float)) else v for v in obstacle[key]
+                ]
         for key in ("radius", "height"):
             if isinstance(obstacle.get(key), (int, float)):
                 obstacle[key] = obstacle[key] * scales["length"]
 
 
 # ---------------------------------------------------------------- sweep expansion
+
 
 def _set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
     keys = dotted.split(".")
@@ -387,11 +456,15 @@ def _turn_layout(data: dict[str, Any], yaw_deg: float) -> None:
                 obstacle["yaw"] = obstacle.get("yaw", 0.0) + yaw_deg
 
 
-def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None = None) -> list[ScenarioPoint]:
+def _points(
+    path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None = None
+) -> list[ScenarioPoint]:
     base = _plain(doc)
     for key in ("sweep", "randomize", "seeds", "sizes_for", "per_robot"):
         base.pop(key, None)
-    sweep = {"robot": [robot], **{k: v for k, v in spec.sweep.items() if k != "robot"}} if robot else spec.sweep
+    sweep = (
+        {"robot": [robot], **{k: v for k, v in spec.sweep.items() if k != "robot"}} if robot else spec.sweep
+    )
     sweep_keys = list(sweep)
     points = []
     for values in itertools.product(*(sweep[k] for k in sweep_keys)):
@@ -407,10 +480,17 @@ def _points(path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None
                 try:
                     _set_dotted(data, key, value)
                 except (KeyError, TypeError):
-                    raise ScenarioError(path, _line_of(doc, _origin(spec, key)), key, "not a key of the scenario") from None
+                    raise ScenarioError(
+                        path, _line_of(doc, _origin(spec, key)), key, "not a key of the scenario"
+                    ) from None
             yaw = data.pop("layout_yaw", 0.0)
             if isinstance(yaw, bool) or not isinstance(yaw, (int, float)):
-                raise ScenarioError(path, _line_of(doc, _origin(spec, "layout_yaw")), "layout_yaw", f"expected degrees (got {yaw!r})")
+                raise ScenarioError(
+                    path,
+                    _line_of(doc, _origin(spec, "layout_yaw")),
+                    "layout_yaw",
+                    f"expected degrees (got {yaw!r})",
+                )
             _turn_layout(data, yaw)
             swept.update(_robot_sizes(path, doc, spec, data))
             try:
@@ -436,12 +516,18 @@ def _robot_sizes(path: Path, doc: CommentedMap, spec: ScenarioFile, data: dict[s
         try:
             _set_dotted(data, key, copy.deepcopy(value))
         except (KeyError, TypeError):
-            raise ScenarioError(path, _line_of(doc, ("per_robot", robot, key)), f"per_robot.{robot}.{key}",
-                                "not a key of the scenario") from None
+            raise ScenarioError(
+                path,
+                _line_of(doc, ("per_robot", robot, key)),
+                f"per_robot.{robot}.{key}",
+                "not a key of the scenario",
+            ) from None
     return applied
 
 
-def _sweep_error(path: Path, doc: CommentedMap, spec: ScenarioFile, swept: dict[str, Any], exc: ValidationError) -> ScenarioError:
+def _sweep_error(
+    path: Path, doc: CommentedMap, spec: ScenarioFile, swept: dict[str, Any], exc: ValidationError
+) -> ScenarioError:
     """The error of a swept value, located at the sweep (or randomize) entry that produced it."""
     for err in exc.errors():
         bad = ".".join(str(p) for p in _loc(err))
@@ -460,7 +546,9 @@ def _origin(spec: ScenarioFile, key: str) -> tuple[str, str]:
 Check = Callable[[Scenario], "tuple[str, str] | None"]  # (key, reason) of a scenario's first problem, or None
 
 
-def load_scenario_file(path: Path | str, robot: str | None = None, check: Check | None = None) -> list[ScenarioPoint]:
+def load_scenario_file(
+    path: Path | str, robot: str | None = None, check: Check | None = None
+) -> list[ScenarioPoint]:
     """Parse, validate and expand one scenario file; raises ScenarioError on any bad input.
     `robot` replaces the file's robot (and any sweep over robots). `check` sees each distinct point
     for problems the schema cannot (robot, scene, controllers: `fallbench.registry.check_scenario`);
@@ -469,25 +557,41 @@ def load_scenario_file(path: Path | str, robot: str | None = None, check: Check 
     return [point for doc in _read_yaml(path) for point in _load_document(path, doc, robot, check)]
 
 
-def _load_document(path: Path, doc: CommentedMap, robot: str | None, check: Check | None) -> list[ScenarioPoint]:
+def _load_document(
+    path: Path, doc: CommentedMap, robot: str | None, check: Check | None
+) -> list[ScenarioPoint]:
     try:
         spec = ScenarioFile.model_validate(_plain(doc))
     except ValidationError as exc:
         raise _validation_error(path, doc, exc) from None
     for key, (low, high) in spec.randomize.items():
         if low > high:
-            raise ScenarioError(path, _line_of(doc, ("randomize", key)), f"randomize.{key}", f"empty range [{low}, {high}]")
+            raise ScenarioError(
+                path, _line_of(doc, ("randomize", key)), f"randomize.{key}", f"empty range [{low}, {high}]"
+            )
     for key, values in spec.sweep.items():
         if not values:
             raise ScenarioError(path, _line_of(doc, ("sweep", key)), f"sweep.{key}", "empty list of values")
-    for key, names in (("sizes_for", [spec.sizes_for] if spec.sizes_for else []), ("per_robot", list(spec.per_robot))):
+    for key, names in (
+        ("sizes_for", [spec.sizes_for] if spec.sizes_for else []),
+        ("per_robot", list(spec.per_robot)),
+    ):
         for name in names:
             if name not in ROBOTS:
-                raise ScenarioError(path, _line_of(doc, (key,)), key, f"unknown robot {name!r} (known: {', '.join(sorted(ROBOTS))})")
+                raise ScenarioError(
+                    path,
+                    _line_of(doc, (key,)),
+                    key,
+                    f"unknown robot {name!r} (known: {', '.join(sorted(ROBOTS))})",
+                )
     count = math.prod(len(values) for values in spec.sweep.values()) * spec.seeds
     if count > MAX_POINTS_PER_FILE:
-        raise ScenarioError(path, _line_of(doc, ("sweep",)) or _line_of(doc, ("seeds",)), "sweep",
-                            f"{count:,} points (sweep values x seeds), over the limit of {MAX_POINTS_PER_FILE:,} per file")
+        raise ScenarioError(
+            path,
+            _line_of(doc, ("sweep",)) or _line_of(doc, ("seeds",)),
+            "sweep",
+            f"{count:,} points (sweep values x seeds), over the limit of {MAX_POINTS_PER_FILE:,} per file",
+        )
     points = _points(path, doc, spec, robot)
     if check is None:
         return points
@@ -506,7 +610,9 @@ def _load_document(path: Path, doc: CommentedMap, robot: str | None, check: Chec
     return points
 
 
-def load_scenarios(paths: list[Path] | list[Path | str], robot: str | None = None, check: Check | None = None) -> list[ScenarioPoint]:
+def load_scenarios(
+    paths: list[Path] | list[Path | str], robot: str | None = None, check: Check | None = None
+) -> list[ScenarioPoint]:
     return [point for path in paths for point in load_scenario_file(path, robot, check)]
 
 
@@ -522,6 +628,8 @@ def resolved_params(kind: str, name: str, defaults: dict[str, Any], given: dict[
     """A policy's or strategy's parameters: its defaults overridden by the scenario's (no unknown ones)."""
     unknown = set(given) - set(defaults)
     if unknown:
-        raise ValueError(f"{kind} {name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
-                         f"known: {', '.join(sorted(defaults)) or 'none'}")
+        raise ValueError(
+            f"{kind} {name!r}: unknown parameter(s) {', '.join(sorted(unknown))}; "
+            f"known: {', '.join(sorted(defaults)) or 'none'}"
+        )
     return {**defaults, **given}

@@ -8,11 +8,11 @@ import pytest
 import scipy.linalg
 
 import fallbench.postimpact.adaptive_qp.policy as adaptive
-from fallbench.postimpact.adaptive_qp.qp import QPConfig, build_problem
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import select_motors
 from fallbench.dynamics.terms import model_terms
+from fallbench.postimpact.adaptive_qp.qp import QPConfig, build_problem
 from fallbench.registry import simulate_named
 from fallbench.scenario import Scenario
 
@@ -32,8 +32,20 @@ def post_impact():
         e, e_dot = q_ref - observation.q, -observation.qd
         held = np.clip(self.kp * e + self.kd * e_dot, -self.world.torque_limit, self.world.torque_limit)
         command = original(self, observation, q_ref)
-        steps.append((self, q_ref.copy(), observation.qpos.copy(), observation.qvel.copy(), observation.q.copy(),
-                      observation.qd.copy(), points, np.flatnonzero(self.selected), held, set(points.bodies)))
+        steps.append(
+            (
+                self,
+                q_ref.copy(),
+                observation.qpos.copy(),
+                observation.qvel.copy(),
+                observation.q.copy(),
+                observation.qd.copy(),
+                points,
+                np.flatnonzero(self.selected),
+                held,
+                set(points.bodies),
+            )
+        )
         return command
 
     adaptive.AdaptiveQPPolicy.after_impact = spy
@@ -50,9 +62,23 @@ def _solve(step, config: QPConfig = QPConfig()):
     q, v = P.state(qpos, qvel)
     e, e_dot = q_ref - q_meas, -qd_meas
     terms = model_terms(P, q, v, points, inertia=True)
-    problem = build_problem(P, terms, points, selected, q_ref, policy.com_ref, e, e_dot, held, world.torque_limit,
-                            policy.scenario.control_dt, config)
-    status, solved, _, y = make_solver(config.solver, config.eps_abs, config.max_iter, config.max_iter_in).solve(problem)
+    problem = build_problem(
+        P,
+        terms,
+        points,
+        selected,
+        q_ref,
+        policy.com_ref,
+        e,
+        e_dot,
+        held,
+        world.torque_limit,
+        policy.scenario.control_dt,
+        config,
+    )
+    status, solved, _, y = make_solver(
+        config.solver, config.eps_abs, config.max_iter, config.max_iter_in
+    ).solve(problem)
     assert solved, status
     n_l, n_s = problem.n_lambda, len(selected)
     qdd = problem.acceleration.M @ y + problem.acceleration.m
@@ -84,7 +110,11 @@ def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impa
         # Torque limits (eq. 12) and bounds (eq. 13) to the solver's tolerance in its scaled variables.
         assert np.all(np.abs(planned) <= limits[s] * (1 + 1e-4) + 1e-3)
         eps = 10 * QPConfig().eps_abs * problem.scale
-        assert np.all(lam >= -eps[: len(lam)]) and np.all(K >= -eps[len(lam) : len(lam) + len(K)]) and np.all(B >= -eps[-len(B):])
+        assert (
+            np.all(lam >= -eps[: len(lam)])
+            and np.all(K >= -eps[len(lam) : len(lam) + len(K)])
+            and np.all(B >= -eps[-len(B) :])
+        )
 
 
 def test_both_solvers_reach_the_same_optimum(post_impact) -> None:
@@ -120,7 +150,9 @@ def test_bounds_default_and_options(post_impact) -> None:
     step = [s for s in post_impact if s[6]][5]
     _, problem, *_ = _solve(step)
     n_l, n_s = problem.n_lambda, len(step[7])
-    assert np.all(problem.l_box == 0.0) and np.all(np.isinf(problem.u_box))  # eq. 13: lambda, K, B >= 0, no upper bound
+    assert np.all(problem.l_box == 0.0) and np.all(
+        np.isinf(problem.u_box)
+    )  # eq. 13: lambda, K, B >= 0, no upper bound
     capped = QPConfig(k_max=50.0, b_max=5.0, overdamping_ratio=0.1)
     *_, K, B, e, e_dot = _solve(step, capped)
     eps = 1e-3
@@ -135,7 +167,9 @@ def test_selection_rule_picks_the_contact_chains(post_impact) -> None:
     policy = post_impact[0][0]
     names = policy.world.joint_names
     feet = select_motors(policy.P, set(FEET), names)
-    assert {names[i] for i in feet} == {f"leg_{side}_{i}_joint" for side in ("left", "right") for i in range(1, 7)}
+    assert {names[i] for i in feet} == {
+        f"leg_{side}_{i}_joint" for side in ("left", "right") for i in range(1, 7)
+    }
     hand = select_motors(policy.P, {"gripper_left_base_link"}, names)
     expected = {f"arm_left_{i}_joint" for i in range(1, 8)} | {"torso_1_joint", "torso_2_joint"}
     assert {names[i] for i in hand} == expected

@@ -141,7 +141,5 @@ def test_every_module_sits_in_a_layer():
 
 @pytest.mark.parametrize("module", sorted(import_graph()))
 def test_imports_flow_down_the_layers(module):
-    upward = [
-        name for name in sorted(import_graph()[module]) if layer_of(name) > layer_of(module)
-    ]
+    upward = [name for name in sorted(import_graph()[module]) if layer_of(name) > layer_of(module)]
     assert upward == [], f"{module} imports from a higher layer: {upward}"

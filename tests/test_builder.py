@@ -22,7 +22,9 @@ def _tasks() -> list[SetPoint]:
     return [jacobian, selection]
 
 
-def _direct_cost(tasks: list[SetPoint], acceleration: AccelerationMap, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _direct_cost(
+    tasks: list[SetPoint], acceleration: AccelerationMap, v: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """sum w |J (M y + m) + drift + kp e + kv J v|^2 = y'Hy + 2 g'y + const, task by task."""
     n = acceleration.M.shape[1]
     H, g = np.zeros((n, n)), np.zeros(n)
@@ -62,7 +64,9 @@ def test_built_cost_and_rows_in_scaled_variables() -> None:
     H[[0, 1], [0, 1]] += 0.1
     scale = 1.0 / np.sqrt(np.diag(H))
     np.testing.assert_allclose(problem.scale, scale, rtol=1e-12)
-    np.testing.assert_allclose(problem.H, scale[:, None] * H * scale + 1e-3 * np.eye(n), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(
+        problem.H, scale[:, None] * H * scale + 1e-3 * np.eye(n), rtol=1e-10, atol=1e-12
+    )
     np.testing.assert_allclose(np.diag(problem.H), 1.0 + 1e-3, rtol=1e-12)
     np.testing.assert_allclose(problem.g, scale * g, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(problem.A, rows @ acceleration.M * scale, rtol=1e-12, atol=1e-12)
@@ -90,8 +94,16 @@ def _kinematics(points: int) -> ContactKinematics:
     drift = RNG.normal(size=3 * points)
     normal_jacobian = np.einsum("id,idj->ij", normals, jacobian.reshape(points, 3, NV))
     normal_drift = np.einsum("id,id->i", normals, drift.reshape(points, 3))
-    return ContactKinematics(jacobian, drift, jacobian @ np.ones(NV), normals, np.zeros(points, dtype=int), normal_jacobian,
-                             normal_drift, np.zeros((NV, 4 * points)))
+    return ContactKinematics(
+        jacobian,
+        drift,
+        jacobian @ np.ones(NV),
+        normals,
+        np.zeros(points, dtype=int),
+        normal_jacobian,
+        normal_drift,
+        np.zeros((NV, 4 * points)),
+    )
 
 
 def test_tangential_cost_is_the_projected_point_motion() -> None:

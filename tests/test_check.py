@@ -25,9 +25,25 @@ def checked(tmp_path: Path):
     baseline = tmp_path / "baseline.csv"
 
     def check(*extra: str):
-        return CliRunner().invoke(app, ["check", "--suite", str(suite), "--baseline", str(baseline), "--tolerances",
-                                        str(TOLERANCES), "--policies", "stiff,zero", "--results", str(tmp_path / "r"),
-                                        "--jobs", "1", *extra])
+        return CliRunner().invoke(
+            app,
+            [
+                "check",
+                "--suite",
+                str(suite),
+                "--baseline",
+                str(baseline),
+                "--tolerances",
+                str(TOLERANCES),
+                "--policies",
+                "stiff,zero",
+                "--results",
+                str(tmp_path / "r"),
+                "--jobs",
+                "1",
+                *extra,
+            ],
+        )
 
     result = check("--update")
     assert result.exit_code == 0 and "baseline updated" in result.output
@@ -74,8 +90,11 @@ def test_missing_run_fails(checked) -> None:
 
 def test_new_failure_fails(checked) -> None:
     check, baseline = checked
-    _edit_suite(baseline, SUITE + "physics_dt: 0.01\ncontrol_dt: 0.01\n"
-                "push: {force: 10000, duration: 0.1, start: 0.0, body: gripper_left_fingertip_1_link}\n")
+    _edit_suite(
+        baseline,
+        SUITE + "physics_dt: 0.01\ncontrol_dt: 0.01\n"
+        "push: {force: 10000, duration: 0.1, start: 0.0, body: gripper_left_fingertip_1_link}\n",
+    )
     result = check()
     assert result.exit_code == 1 and "status" in result.output and "diverged" in result.output
 
@@ -86,26 +105,40 @@ def test_corrupt_baseline_is_an_error_naming_case_and_metric(checked) -> None:
     header, *rows = good.splitlines()
     columns = header.split(",")
     zero = next(i for i, row in enumerate(rows) if ",zero," in row)
-    for bad, reason in (("nan", "'nan' is not a finite number"), ("inf", "'inf' is not a finite number"),
-                        ("-Infinity", "'-Infinity' is not a finite number"), ("high", "'high' is not a finite number")):
+    for bad, reason in (
+        ("nan", "'nan' is not a finite number"),
+        ("inf", "'inf' is not a finite number"),
+        ("-Infinity", "'-Infinity' is not a finite number"),
+        ("high", "'high' is not a finite number"),
+    ):
         cells = rows[zero].split(",")
         cells[columns.index("imu_peak_z")] = bad
-        baseline.write_text("\n".join([header, *rows[:zero], ",".join(cells), *rows[zero + 1:]]) + "\n")
+        baseline.write_text("\n".join([header, *rows[:zero], ",".join(cells), *rows[zero + 1 :]]) + "\n")
         result = check()
         assert result.exit_code == 2, (bad, result.output)
-        assert result.stderr == f"error: {baseline}:{zero + 2}: tiny#s0 / zero / none: imu_peak_z: {reason} " \
+        assert (
+            result.stderr == f"error: {baseline}:{zero + 2}: tiny#s0 / zero / none: imu_peak_z: {reason} "
             "(leave the cell empty if the metric does not apply to this case)\n"
+        )
     dropped = columns.index("knee_limit_margin")
-    baseline.write_text("\n".join(",".join(c for i, c in enumerate(line.split(",")) if i != dropped)
-                                  for line in good.splitlines()) + "\n")
+    baseline.write_text(
+        "\n".join(
+            ",".join(c for i, c in enumerate(line.split(",")) if i != dropped) for line in good.splitlines()
+        )
+        + "\n"
+    )
     result = check()
-    assert result.exit_code == 2 and result.stderr.startswith(f"error: {baseline}:1: missing column(s) knee_limit_margin")
+    assert result.exit_code == 2 and result.stderr.startswith(
+        f"error: {baseline}:1: missing column(s) knee_limit_margin"
+    )
 
 
 def test_metric_that_did_not_apply_must_stay_absent(checked) -> None:
     check, baseline = checked
     frame = read_baseline(baseline)
-    frame.loc[frame.policy == "stiff", "impact_time"] = float("nan")  # written as an empty cell: "does not apply"
+    frame.loc[frame.policy == "stiff", "impact_time"] = float(
+        "nan"
+    )  # written as an empty cell: "does not apply"
     write_baseline(frame, baseline)
     result = check()
     assert result.exit_code == 1 and "impact_time" in result.output and "n/a" in result.output

@@ -20,8 +20,25 @@ COLUMNS = ["run_id", "status", "imu_peak_z", "knee_limit_margin", "torque_ratio_
 
 
 def _sweep(path: Path, results: Path, *backend: str):
-    return CliRunner().invoke(app, ["run", "sweep", str(path), "--results", str(results), "--reports", str(results / "rep"),
-                                    "--policies", "stiff,zero", "--pre-impact", "none", "--jobs", "2", *backend])
+    return CliRunner().invoke(
+        app,
+        [
+            "run",
+            "sweep",
+            str(path),
+            "--results",
+            str(results),
+            "--reports",
+            str(results / "rep"),
+            "--policies",
+            "stiff,zero",
+            "--pre-impact",
+            "none",
+            "--jobs",
+            "2",
+            *backend,
+        ],
+    )
 
 
 def test_dask_local_cluster_matches_loky_and_resumes(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from fallbench.dynamics.model import pinocchio_for
-from fallbench.preimpact.direction.inertia import (desired_inertia, inertia_about, inertia_jacobian, to_vector)
+from fallbench.preimpact.direction.inertia import desired_inertia, inertia_about, inertia_jacobian, to_vector
 from fallbench.preimpact.direction.stepping import swing_velocity
 from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.scenario import Scenario
@@ -28,7 +28,9 @@ def talos():
     return world, P, q
 
 
-def _anchored_inertia(model: pin.Model, data: pin.Data, q: np.ndarray, foot: int, placement: pin.SE3, point: np.ndarray) -> np.ndarray:
+def _anchored_inertia(
+    model: pin.Model, data: pin.Data, q: np.ndarray, foot: int, placement: pin.SE3, point: np.ndarray
+) -> np.ndarray:
     """I_hat about `point` after moving the base so that the foot frame sits at `placement`."""
     pin.framesForwardKinematics(model, data, q)
     base = placement * data.oMf[foot].inverse() * pin.XYZQUATToSE3(q[:7])
@@ -97,9 +99,13 @@ def test_a_step_ends_when_its_foot_touches_down_even_beside_the_target() -> None
     cm beside the target (4.4 cm on 004 Fig. 8's push) and, loaded, cannot be swung there again."""
     path = SwingPath(np.array([0.0, -0.085, 0.11]), np.array([0.47, -0.36]), 0.08, 0.025)
     assert not path.landed(np.array([0.0, -0.085, 0.11]), touching=True)  # not lifted yet: still standing
-    np.testing.assert_allclose(path.waypoint(np.array([0.0, -0.085, 0.11])), [0.0, -0.085, 0.19])  # straight up first
+    np.testing.assert_allclose(
+        path.waypoint(np.array([0.0, -0.085, 0.11])), [0.0, -0.085, 0.19]
+    )  # straight up first
     np.testing.assert_allclose(path.waypoint(np.array([0.0, -0.085, 0.16])), [0.47, -0.36, 0.19])  # then over
     np.testing.assert_allclose(path.waypoint(np.array([0.46, -0.36, 0.16])), [0.47, -0.36, 0.11])  # then down
-    np.testing.assert_allclose(path.waypoint(np.array([0.51, -0.377, 0.13])), [0.47, -0.36, 0.11])  # and it stays on its way down
+    np.testing.assert_allclose(
+        path.waypoint(np.array([0.51, -0.377, 0.13])), [0.47, -0.36, 0.11]
+    )  # and it stays on its way down
     assert not path.landed(np.array([0.51, -0.377, 0.13]), touching=False)
     assert path.landed(np.array([0.51, -0.377, 0.117]), touching=True)

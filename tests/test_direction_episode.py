@@ -10,12 +10,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from fallbench.registry import simulate_named
-from fallbench.sim.recorder import Recording
 from fallbench.analysis.metrics import compute_metrics
 from fallbench.preimpact.direction.outcome import com_path
-from fallbench.registry import load
+from fallbench.registry import load, simulate_named
 from fallbench.scenario import Scenario
+from fallbench.sim.recorder import Recording
 
 RING4 = [
     {"type": "box", "pos": [1.25, 0.0, 0.375], "size": [0.6, 0.6, 0.75]},
@@ -24,8 +23,13 @@ RING4 = [
     {"type": "cylinder", "pos": [0.849, -0.849, 0.75], "radius": 0.15, "height": 1.5},
 ]
 SHIPPED = Path(__file__).resolve().parents[1] / "scenarios" / "direction.yaml"
-FORWARD = Scenario(name="dir_forward", duration=1.1, push={"force": 384, "duration": 0.1, "start": 0.1, "direction": 0},
-                   obstacles=RING4, policy_params={"direction": {"mode": "take_step"}})
+FORWARD = Scenario(
+    name="dir_forward",
+    duration=1.1,
+    push={"force": 384, "duration": 0.1, "start": 0.1, "direction": 0},
+    obstacles=RING4,
+    policy_params={"direction": {"mode": "take_step"}},
+)
 
 
 def _shipped(name: str) -> Scenario:
@@ -42,7 +46,11 @@ def test_a_planned_step_lands_without_counting_as_an_impact(stepped: Recording) 
     strategy = stepped.strategy
     assert stepped.status == "ok" and strategy is not None and strategy.plan is not None
     assert strategy.plan.chosen.kind == "take_step" and strategy.plan.inertia_shaping == ""
-    assert stepped.fall_time < strategy.trigger.time <= stepped.fall_time + strategy.config.trigger_timeout + 1e-9
+    assert (
+        stepped.fall_time
+        < strategy.trigger.time
+        <= stepped.fall_time + strategy.config.trigger_timeout + 1e-9
+    )
     assert strategy.step_done is not None and strategy.step_done > strategy.trigger.time  # the foot landed
     swing_foot = stepped.world.robot.feet[strategy.plan.chosen.swing]
     assert all(swing_foot not in event.bodies for event in stepped.impact_events)
@@ -54,8 +62,11 @@ def test_direction_metrics(stepped: Recording) -> None:
     assert row["control_trigger_reason"] in ("steady", "timeout")
     assert row["n_safe_regions"] == 2 and isinstance(row["obstacle_hit"], bool)
     assert row["fall_direction_error_deg"] == pytest.approx(
-        min(abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"]),
-            360 - abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"])))
+        min(
+            abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"]),
+            360 - abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"]),
+        )
+    )
     assert row["direction_plan_ms"] > 0 and math.isfinite(row["obstacle_clearance_at_impact"])
 
 
@@ -63,13 +74,17 @@ def test_none_gets_the_obstacle_metrics_too() -> None:
     row = compute_metrics(simulate_named(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
     assert "direction_strategy" not in row and row["n_safe_regions"] == 2
     assert 0.0 <= row["actual_fall_direction_deg"] < 360.0
-    assert row["actual_fall_end"] == "run_end"  # 0.5 s after the push the CoM is still high, no object touched
+    assert (
+        row["actual_fall_end"] == "run_end"
+    )  # 0.5 s after the push the CoM is still high, no object touched
 
 
 def test_actual_direction_says_whether_the_com_touched_down() -> None:
     """004 Fig. 6's backward fall into free space reaches the touchdown height; its direction is backward."""
     row = compute_metrics(simulate_named(_shipped("dir_fig6"), "stiff", "none"))
-    assert row["actual_fall_end"] == "touchdown" and row["actual_fall_direction_deg"] == pytest.approx(180.0, abs=5.0)
+    assert row["actual_fall_end"] == "touchdown" and row["actual_fall_direction_deg"] == pytest.approx(
+        180.0, abs=5.0
+    )
 
 
 def test_actual_direction_stops_at_the_first_object_contact() -> None:
@@ -78,13 +93,17 @@ def test_actual_direction_stops_at_the_first_object_contact() -> None:
     rec = simulate_named(_shipped("dir_fig1"), "stiff", "none")
     row = compute_metrics(rec)
     assert row["obstacle_hit"] and row["actual_fall_end"] == "object"
-    touching = np.any([rec.world.sensor(rec.sensordata, name)[:, 0] > 0 for name in rec.world.obstacle_sensors], axis=0)
+    touching = np.any(
+        [rec.world.sensor(rec.sensordata, name)[:, 0] > 0 for name in rec.world.obstacle_sensors], axis=0
+    )
     every = round(rec.scenario.control_dt / rec.scenario.physics_dt)
     path = com_path(rec, every)
     start = int(np.searchsorted(rec.time[::every], rec.fall_time))
     contact = int(np.flatnonzero(touching)[0]) // every
     delta = path[contact, :2] - path[start, :2]
-    assert row["actual_fall_direction_deg"] == pytest.approx(math.degrees(math.atan2(delta[1], delta[0])) % 360.0, abs=1e-9)
+    assert row["actual_fall_direction_deg"] == pytest.approx(
+        math.degrees(math.atan2(delta[1], delta[0])) % 360.0, abs=1e-9
+    )
 
 
 def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
@@ -102,8 +121,12 @@ def test_a_step_with_partial_inertia_shaping_lands() -> None:
     """004 Fig. 8/10 (393 N forward, Take a Step + partial inertia shaping): the arms' motion carries
     the descending foot 4.4 cm past its target onto the ground; the step must end there, or the
     swing leg goes on pushing a loaded foot and the step is never complete."""
-    scenario = next(p.scenario for p in load([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
-                    and p.scenario.policy_params["direction"]["mode"] == "take_step_pis")
+    scenario = next(
+        p.scenario
+        for p in load([SHIPPED])
+        if p.scenario.name.startswith("dir_fig10")
+        and p.scenario.policy_params["direction"]["mode"] == "take_step_pis"
+    )
     rec = simulate_named(scenario, "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.label.endswith("+pis")
@@ -116,8 +139,12 @@ def test_whole_body_shaping_keeps_both_grounded_feet_where_they_are() -> None:
     """004 Fig. 10's push with whole-body inertia shaping from double support (No Action): J_I holds
     only the stance foot, so the shaping must not also swing the other grounded leg; it scissored the
     hips by +-1.5 rad, the feet could not follow and the body folded (CoM 0.88 -> 0.70 m)."""
-    scenario = next(p.scenario for p in load([SHIPPED]) if p.scenario.name.startswith("dir_fig10")
-                    and p.scenario.policy_params["direction"]["mode"] == "whole_body_is")
+    scenario = next(
+        p.scenario
+        for p in load([SHIPPED])
+        if p.scenario.name.startswith("dir_fig10")
+        and p.scenario.policy_params["direction"]["mode"] == "whole_body_is"
+    )
     rec = simulate_named(scenario.model_copy(update={"duration": 0.6}), "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.label == "no_action+wbis"

@@ -9,13 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from fallbench.sim.events import support_polygon
 from fallbench.preimpact.direction.candidates import FallState, predict
 from fallbench.preimpact.direction.geometry import Circle, safe_regions
 from fallbench.preimpact.direction.pendulum import rollout
 from fallbench.preimpact.direction.scoring import desired_direction, score
 from fallbench.preimpact.direction.support import nearest_pivot
 from fallbench.preimpact.direction.trigger import ControlTrigger
+from fallbench.sim.events import support_polygon
 
 ORIGIN = np.zeros(2)
 
@@ -47,8 +47,13 @@ def test_overlapping_cones_merge_even_three_at_once() -> None:
     # a fourth object far away leaves exactly two free regions
     circles = [_circle(0, 2, 1), _circle(50, 2, 1), _circle(100, 2, 1), _circle(220, 2, 0.5)]
     regions = safe_regions(circles, ORIGIN)
-    assert _deg(regions) == [(130.0, pytest.approx(90 - math.degrees(math.asin(0.25)), abs=1e-6)),
-                             (pytest.approx(220 + math.degrees(math.asin(0.25)), abs=1e-6), pytest.approx(110 - math.degrees(math.asin(0.25)), abs=1e-6))]
+    assert _deg(regions) == [
+        (130.0, pytest.approx(90 - math.degrees(math.asin(0.25)), abs=1e-6)),
+        (
+            pytest.approx(220 + math.degrees(math.asin(0.25)), abs=1e-6),
+            pytest.approx(110 - math.degrees(math.asin(0.25)), abs=1e-6),
+        ),
+    ]
 
 
 def test_no_object_is_one_full_region_and_a_surrounding_ring_none() -> None:
@@ -108,7 +113,10 @@ def test_pendulum_tips_normal_to_the_edge_and_along_the_radius_at_a_vertex() -> 
     xi = np.array([0.4, 0.05])  # ahead of the +x edge
     pivot = nearest_pivot(square, xi)
     assert pivot.edge is not None and abs(pivot.edge[0]) < 1e-12 and pivot.point == pytest.approx([0.1, 0.05])
-    com, velocity = np.array([[0.02, 0.03, 0.9]]), np.array([[0.5, 0.3, 0.0]])  # sideways speed does not matter on a hinge
+    com, velocity = (
+        np.array([[0.02, 0.03, 0.9]]),
+        np.array([[0.5, 0.3, 0.0]]),
+    )  # sideways speed does not matter on a hinge
     edge = rollout(pivot.point[None], pivot.edge[None], com, velocity, 0.0, 0.3)
     assert math.degrees(edge.direction[0]) == pytest.approx(0.0, abs=1e-9)
     corner = nearest_pivot(square, np.array([0.5, 0.5]))
@@ -119,8 +127,17 @@ def test_pendulum_tips_normal_to_the_edge_and_along_the_radius_at_a_vertex() -> 
     assert 0.1 < corner_fall.time[0] < 2.0 and corner_fall.end[0, 2] <= 0.3
     rod = np.linalg.norm(corner_fall.com[0] - [0.1, 0.1, 0.0], axis=1)
     assert rod == pytest.approx(np.full(len(rod), rod[0]), rel=1e-4)  # a rigid rod
-    behind = rollout(corner.point[None], np.zeros((1, 2)), np.array([[0.0, 0.0, 0.9]]), np.array([[0.05, 0.05, 0.0]]), 0.0, 0.3)
-    assert math.degrees(behind.direction[0]) == pytest.approx(225.0, abs=1e-6)  # too slow to pass over the corner: falls back
+    behind = rollout(
+        corner.point[None],
+        np.zeros((1, 2)),
+        np.array([[0.0, 0.0, 0.9]]),
+        np.array([[0.05, 0.05, 0.0]]),
+        0.0,
+        0.3,
+    )
+    assert math.degrees(behind.direction[0]) == pytest.approx(
+        225.0, abs=1e-6
+    )  # too slow to pass over the corner: falls back
 
 
 def test_a_pendulum_falling_back_over_its_polygon_is_a_fall_that_stops() -> None:
@@ -128,12 +145,23 @@ def test_a_pendulum_falling_back_over_its_polygon_is_a_fall_that_stops() -> None
     rigid pendulum, too slow to rise over that edge, swings back over the polygon (it predicted a
     backward fall, 176 deg, for a step after 550 N forward, which then fell forward at 35 deg). A
     body standing on the polygon cannot tip into its own soles: the fall stops there."""
-    feet = support_polygon(np.array([[-0.114, -0.15], [0.096, -0.15], [0.546, 0.02], [0.546, 0.15], [0.336, 0.15], [-0.114, -0.02]]))
-    com, velocity = np.array([[0.307, 0.022, 0.855]]), np.array([[0.866, 0.117, -0.219]])  # measured at that landing
+    feet = support_polygon(
+        np.array(
+            [[-0.114, -0.15], [0.096, -0.15], [0.546, 0.02], [0.546, 0.15], [0.336, 0.15], [-0.114, -0.02]]
+        )
+    )
+    com, velocity = (
+        np.array([[0.307, 0.022, 0.855]]),
+        np.array([[0.866, 0.117, -0.219]]),
+    )  # measured at that landing
     state = FallState(com[0], np.zeros(3), 0.0, 0.3)
     roll, stops = predict([feet], com, velocity, state)
-    assert roll.end[0, 0] < 0.546 and bool(stops[0])  # capture point 1.6 cm past the edge, yet the pendulum falls back
-    roll, stops = predict([feet], com, 1.5 * velocity, state)  # fast enough: over the front edge, a forward fall
+    assert roll.end[0, 0] < 0.546 and bool(
+        stops[0]
+    )  # capture point 1.6 cm past the edge, yet the pendulum falls back
+    roll, stops = predict(
+        [feet], com, 1.5 * velocity, state
+    )  # fast enough: over the front edge, a forward fall
     assert math.degrees(roll.direction[0]) == pytest.approx(0.0, abs=1e-6) and not bool(stops[0])
 
 
@@ -142,10 +170,15 @@ def test_layout_yaw_turns_the_obstacles_about_the_robot(tmp_path) -> None:
     from fallbench.scenario import load_scenario_file
 
     path = tmp_path / "turned.yaml"
-    path.write_text("name: turned\nduration: 1.0\nobstacles:\n  - {type: box, pos: [1.2, 0.0, 0.4], size: [0.4, 0.8, 0.8], yaw: 10}\n"
-                    "  - {type: cylinder, pos: [0.0, -1.0, 0.5], radius: 0.2, height: 1.0}\nsweep:\n  layout_yaw: [0, 90]\n")
+    path.write_text(
+        "name: turned\nduration: 1.0\nobstacles:\n  - {type: box, pos: [1.2, 0.0, 0.4], size: [0.4, 0.8, 0.8], yaw: 10}\n"
+        "  - {type: cylinder, pos: [0.0, -1.0, 0.5], radius: 0.2, height: 1.0}\nsweep:\n  layout_yaw: [0, 90]\n"
+    )
     flat, turned = load_scenario_file(path, check=check_scenario)
     assert flat.scenario.obstacles[0].pos == pytest.approx((1.2, 0.0, 0.4))
-    assert turned.scenario.obstacles[0].pos == pytest.approx((0.0, 1.2, 0.4)) and turned.scenario.obstacles[0].yaw == 100
+    assert (
+        turned.scenario.obstacles[0].pos == pytest.approx((0.0, 1.2, 0.4))
+        and turned.scenario.obstacles[0].yaw == 100
+    )
     assert turned.scenario.obstacles[1].pos == pytest.approx((1.0, 0.0, 0.5))
     assert turned.swept == {"layout_yaw": 90} and "layout_yaw=90" in turned.label

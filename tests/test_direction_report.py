@@ -11,15 +11,37 @@ from fallbench.report.direction import claims, hit_table, paired
 def _runs() -> pd.DataFrame:
     rows = []
     # (point, none hits, direction hits, direction strategy)
-    for point, none_hit, direction_hit, strategy in [("a", True, False, "take_step_left+pis"), ("b", True, True, "lift_leg_right+pis"),
-                                                      ("c", False, False, "no_action"), ("d", True, False, "take_step_right+wbis")]:
-        common = {"point": point, "policy": "stiff", "scenario": "dir_x", "status": "ok", "fall_time": 0.2,
-                  "param:layout_yaw": 90.0}
-        rows.append(common | {"pre_impact": "none", "obstacle_hit": none_hit, "actual_in_safe_region": not none_hit})
-        rows.append(common | {"pre_impact": "direction", "obstacle_hit": direction_hit, "actual_in_safe_region": not direction_hit,
-                              "direction_strategy": strategy, "fall_direction_error_deg": 10.0 if point != "b" else 40.0,
-                              "direction_plan_ms": 50.0, "direction_step_ms_median": 2.0, "predicted_score": 0.5,
-                              "step_completed": (point == "a") if strategy.startswith("take_step") else None})
+    for point, none_hit, direction_hit, strategy in [
+        ("a", True, False, "take_step_left+pis"),
+        ("b", True, True, "lift_leg_right+pis"),
+        ("c", False, False, "no_action"),
+        ("d", True, False, "take_step_right+wbis"),
+    ]:
+        common = {
+            "point": point,
+            "policy": "stiff",
+            "scenario": "dir_x",
+            "status": "ok",
+            "fall_time": 0.2,
+            "param:layout_yaw": 90.0,
+        }
+        rows.append(
+            common | {"pre_impact": "none", "obstacle_hit": none_hit, "actual_in_safe_region": not none_hit}
+        )
+        rows.append(
+            common
+            | {
+                "pre_impact": "direction",
+                "obstacle_hit": direction_hit,
+                "actual_in_safe_region": not direction_hit,
+                "direction_strategy": strategy,
+                "fall_direction_error_deg": 10.0 if point != "b" else 40.0,
+                "direction_plan_ms": 50.0,
+                "direction_step_ms_median": 2.0,
+                "predicted_score": 0.5,
+                "step_completed": (point == "a") if strategy.startswith("take_step") else None,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -27,7 +49,10 @@ def test_hit_table_counts_avoided_and_kept_falls() -> None:
     table = hit_table(paired(_runs())).iloc[0]
     assert table["layout_yaw (deg)"] == 90.0 and table["runs"] == 4
     assert table["none hits object"] == "3/4 (75 %)" and table["direction hits object"] == "1/4 (25 %)"
-    assert table["none hits avoided by direction"] == "2/3 (67 %)" and table["none clear kept clear"] == "1/1 (100 %)"
+    assert (
+        table["none hits avoided by direction"] == "2/3 (67 %)"
+        and table["none clear kept clear"] == "1/1 (100 %)"
+    )
     assert table["prediction error median (deg)"] == 10.0
 
 
@@ -51,5 +76,7 @@ def test_claims_separate_steering_from_contact() -> None:
     verdicts = claims(runs, pairs).set_index("claim (004)")
     steered = verdicts.loc[[c for c in verdicts.index if c.startswith("direction turns the falls")][0]]
     assert steered.verdict == "holds" and steered["N/M"].startswith("3/3")
-    clear = verdicts.loc[[c for c in verdicts.index if c.startswith("a direction fall toward a safe region")][0]]
+    clear = verdicts.loc[
+        [c for c in verdicts.index if c.startswith("a direction fall toward a safe region")][0]
+    ]
     assert clear.verdict == "does not hold" and clear["N/M"].startswith("3/4")

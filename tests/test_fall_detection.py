@@ -9,12 +9,19 @@ import math
 import numpy as np
 import pytest
 
-from fallbench.registry import simulate_named
-from fallbench.sim.episode import make_fall_detector
-from fallbench.sim.events import (CapturePointDetector, FallDetector, FreefallDetector, TiltDetector, capture_point,
-                              signed_distance, support_polygon)
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.registry import simulate_named
 from fallbench.scenario import Push, Scenario
+from fallbench.sim.episode import make_fall_detector
+from fallbench.sim.events import (
+    CapturePointDetector,
+    FallDetector,
+    FreefallDetector,
+    TiltDetector,
+    capture_point,
+    signed_distance,
+    support_polygon,
+)
 from fallbench.sim.world import build_world, initial_state
 
 SQUARE = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]])  # m, a 0.2 x 0.1 foot
@@ -33,18 +40,23 @@ def test_support_polygon_is_the_convex_hull() -> None:
     hull = support_polygon(np.vstack([SQUARE, inner]))
     assert sorted(map(tuple, hull)) == sorted(map(tuple, SQUARE))
     x, y = hull[:, 0], hull[:, 1]
-    assert 0.5 * float(x @ np.roll(y, -1) - y @ np.roll(x, -1)) == pytest.approx(0.02)  # counter-clockwise, 0.02 m^2
+    assert 0.5 * float(x @ np.roll(y, -1) - y @ np.roll(x, -1)) == pytest.approx(
+        0.02
+    )  # counter-clockwise, 0.02 m^2
     segment = support_polygon(np.array([[0.0, 0.0], [0.1, 0.0], [0.3, 0.0]]))  # collinear: the extreme points
     assert sorted(map(tuple, segment)) == [(0.0, 0.0), (0.3, 0.0)]
 
 
-@pytest.mark.parametrize(("point", "distance"), [
-    ((0.1, 0.05), -0.05),  # centre: 5 cm from the long edges
-    ((0.19, 0.05), -0.01),
-    ((0.25, 0.05), 0.05),  # in front of the toe edge
-    ((0.23, 0.14), 0.05),  # off a corner: 3-4-5
-    ((-0.1, -0.1), math.hypot(0.1, 0.1)),
-])
+@pytest.mark.parametrize(
+    ("point", "distance"),
+    [
+        ((0.1, 0.05), -0.05),  # centre: 5 cm from the long edges
+        ((0.19, 0.05), -0.01),
+        ((0.25, 0.05), 0.05),  # in front of the toe edge
+        ((0.23, 0.14), 0.05),  # off a corner: 3-4-5
+        ((-0.1, -0.1), math.hypot(0.1, 0.1)),
+    ],
+)
 def test_signed_distance_to_the_polygon(point: tuple[float, float], distance: float) -> None:
     assert signed_distance(np.array(point), support_polygon(SQUARE)) == pytest.approx(distance)
 
@@ -53,33 +65,48 @@ def test_signed_distance_to_a_degenerate_polygon() -> None:
     edge = support_polygon(np.array([[0.2, 0.0], [0.2, 0.1]]))  # a foot on its toe edge
     assert signed_distance(np.array([0.2, 0.05]), edge) == pytest.approx(0.0)
     assert signed_distance(np.array([0.1, 0.05]), edge) == pytest.approx(0.1)
-    assert signed_distance(np.array([0.0, 0.0]), support_polygon(np.array([[0.0, 0.3]]))) == pytest.approx(0.3)
+    assert signed_distance(np.array([0.0, 0.0]), support_polygon(np.array([[0.0, 0.3]]))) == pytest.approx(
+        0.3
+    )
 
 
 def test_capture_point_detector_fires_past_the_margin_only() -> None:
     detector = CapturePointDetector(margin=0.02)
     com = np.array([0.1, 0.05, 0.981])
     omega0 = math.sqrt(10.0)
-    assert not detector.update(0.0, com, np.array([0.115 * omega0, 0.0, 0.0]), SQUARE)  # xi 1.5 cm past the toe
+    assert not detector.update(
+        0.0, com, np.array([0.115 * omega0, 0.0, 0.0]), SQUARE
+    )  # xi 1.5 cm past the toe
     assert detector.distance == pytest.approx(0.015)
-    assert not detector.update(0.005, com, np.array([0.3 * omega0, 0.0, 0.0]), np.zeros((0, 2)))  # airborne: no judgement
+    assert not detector.update(
+        0.005, com, np.array([0.3 * omega0, 0.0, 0.0]), np.zeros((0, 2))
+    )  # airborne: no judgement
     assert detector.update(0.01, com, np.array([0.125 * omega0, 0.0, 0.0]), SQUARE)  # 2.5 cm past
     assert detector.time == 0.01
-    assert detector.update(0.015, com, np.zeros(3), SQUARE) and detector.time == 0.01  # the first firing is kept
+    assert (
+        detector.update(0.015, com, np.zeros(3), SQUARE) and detector.time == 0.01
+    )  # the first firing is kept
 
 
 def _detector(methods: tuple[str, ...]) -> FallDetector:
     return FallDetector(methods, CapturePointDetector(0.02), TiltDetector(15.0), FreefallDetector(3.0, 0.02))
 
 
-@pytest.mark.parametrize(("methods", "reason", "time"), [
-    (("capture_point", "tilt", "freefall"), "capture_point", 0.01),
-    (("tilt",), "tilt", 0.02),
-])
-def test_the_earliest_selected_detector_declares_the_fall(methods: tuple[str, ...], reason: str, time: float) -> None:
+@pytest.mark.parametrize(
+    ("methods", "reason", "time"),
+    [
+        (("capture_point", "tilt", "freefall"), "capture_point", 0.01),
+        (("tilt",), "tilt", 0.02),
+    ],
+)
+def test_the_earliest_selected_detector_declares_the_fall(
+    methods: tuple[str, ...], reason: str, time: float
+) -> None:
     detector = _detector(methods)
     com, fast = np.array([0.1, 0.05, 0.981]), np.array([2.0, 0.0, 0.0])  # xi 0.53 m ahead of the foot
-    tilted = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(0.5), -math.sin(0.5)], [0.0, math.sin(0.5), math.cos(0.5)]])  # 28.6 deg
+    tilted = np.array(
+        [[1.0, 0.0, 0.0], [0.0, math.cos(0.5), -math.sin(0.5)], [0.0, math.sin(0.5), math.cos(0.5)]]
+    )  # 28.6 deg
     assert not detector.update(0.0, UPRIGHT, STANDING_ACC, com, np.zeros(3), SQUARE)
     detector.update(0.01, UPRIGHT, STANDING_ACC, com, fast, SQUARE)
     detector.update(0.02, tilted, STANDING_ACC, com, fast, SQUARE)
@@ -89,19 +116,25 @@ def test_the_earliest_selected_detector_declares_the_fall(methods: tuple[str, ..
 
 def test_method_accepts_one_name_or_a_list() -> None:
     assert Scenario(name="s", duration=1, detection={"method": "tilt"}).detection.method == ("tilt",)
-    assert make_fall_detector(Scenario(name="s", duration=1, detection={"method": ["tilt", "freefall"]})).methods == ("tilt", "freefall")
+    assert make_fall_detector(
+        Scenario(name="s", duration=1, detection={"method": ["tilt", "freefall"]})
+    ).methods == ("tilt", "freefall")
     with pytest.raises(ValueError, match="capture_point"):
         Scenario(name="s", duration=1, detection={"method": ["stumble"]})
 
 
 def test_no_detection_on_a_push_talos_survives() -> None:
-    rec = simulate_named(Scenario(name="p", duration=1.5, push=Push(force=235, direction=0, duration=0.1)), "stiff")
+    rec = simulate_named(
+        Scenario(name="p", duration=1.5, push=Push(force=235, direction=0, duration=0.1)), "stiff"
+    )
     assert rec.fall_time is None and rec.fall_times == {}
     assert rec.qpos[-1, 2] > 0.9  # still standing (base height, m)
 
 
 def test_capture_point_fires_before_tilt_on_a_fall() -> None:
-    rec = simulate_named(Scenario(name="p", duration=1.0, push=Push(force=370, direction=0, duration=0.1)), "stiff")
+    rec = simulate_named(
+        Scenario(name="p", duration=1.0, push=Push(force=370, direction=0, duration=0.1)), "stiff"
+    )
     row = compute_metrics(rec)
     assert row["fall_reason"] == "capture_point"
     assert 0.1 < row["fall_time_capture_point"] < 0.35  # within 0.25 s of the push onset (0.1 s)
@@ -114,8 +147,14 @@ def test_posture_noise_moves_the_upper_body_and_leaves_the_robot_standing() -> N
     still = Scenario(name="p", duration=0.5)
     noisy = Scenario(name="p", duration=0.5, initial={"joint_noise": 0.03}, seed=3)
     world = build_world(noisy)
-    moved = initial_state(world, noisy).qpos[world.qpos_adr] - initial_state(world, still).qpos[world.qpos_adr]
+    moved = (
+        initial_state(world, noisy).qpos[world.qpos_adr] - initial_state(world, still).qpos[world.qpos_adr]
+    )
     legs = np.isin(world.joint_names, world.robot.leg_joints)
-    assert np.all(moved[legs] == 0.0) and np.all(np.abs(moved[~legs]) <= 0.03) and np.abs(moved[~legs]).max() > 0.01
+    assert (
+        np.all(moved[legs] == 0.0)
+        and np.all(np.abs(moved[~legs]) <= 0.03)
+        and np.abs(moved[~legs]).max() > 0.01
+    )
     rec = simulate_named(noisy, "stiff")
     assert rec.fall_time is None and rec.fall_times == {}

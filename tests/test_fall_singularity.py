@@ -6,9 +6,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.preimpact.reshape.fall_posture import elbow_angle_max_manipulability, fall_posture
 from fallbench.dynamics.fall_singularity import Impact, singular_joints
 from fallbench.dynamics.model import PinocchioModel, build_pinocchio
+from fallbench.preimpact.reshape.fall_posture import elbow_angle_max_manipulability, fall_posture
 from fallbench.scenario import Scenario
 from fallbench.sim.world import build_world
 
@@ -35,7 +35,9 @@ def _wrist_impact(P: PinocchioModel, q: np.ndarray, along_forearm: bool) -> Impa
     forearm = (wrist - elbow) / np.linalg.norm(wrist - elbow)
     joint = P.model.getJointId(ELBOW)
     pin.computeJointJacobians(P.model, P.data, q)
-    axis = pin.getJointJacobian(P.model, P.data, joint, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[3:, P.model.joints[joint].idx_v]
+    axis = pin.getJointJacobian(P.model, P.data, joint, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[
+        3:, P.model.joints[joint].idx_v
+    ]
     across = np.cross(axis, forearm)  # the lever's full torque
     force = -forearm if along_forearm else across / np.linalg.norm(across)
     return Impact("arm_left_7_link", wrist, 500.0 * force)
@@ -44,7 +46,9 @@ def _wrist_impact(P: PinocchioModel, q: np.ndarray, along_forearm: bool) -> Impa
 def test_force_along_the_forearm_leaves_the_elbow_unloaded(P: PinocchioModel) -> None:
     q = _configuration(P, {ELBOW: -1.2})
     assert ELBOW in singular_joints(P.model, P.data, q, [_wrist_impact(P, q, along_forearm=True)], [ELBOW])
-    assert ELBOW not in singular_joints(P.model, P.data, q, [_wrist_impact(P, q, along_forearm=False)], [ELBOW])
+    assert ELBOW not in singular_joints(
+        P.model, P.data, q, [_wrist_impact(P, q, along_forearm=False)], [ELBOW]
+    )
 
 
 def test_torque_is_eq1_sum_of_jacobian_transpose_forces(P: PinocchioModel) -> None:
@@ -61,7 +65,9 @@ def test_fall_posture_bends_elbows_knees_and_wrists(P: PinocchioModel) -> None:
     world = build_world(Scenario(name="t", duration=1.0))
     start = {j: 0.0 for j in world.joint_names}
     target = fall_posture(P.model, world.robot, start, knee_bend=1.6)
-    assert target["leg_left_4_joint"] == 1.6 and target["leg_left_3_joint"] == target["leg_left_5_joint"] == -0.8
+    assert (
+        target["leg_left_4_joint"] == 1.6 and target["leg_left_3_joint"] == target["leg_left_5_joint"] == -0.8
+    )
     assert target[ELBOW] == pytest.approx(-np.pi / 2, abs=0.01)  # |sin| is largest at a right angle
     assert elbow_angle_max_manipulability(-0.5, 0.0) == pytest.approx(-0.5)  # the range's end nearest pi/2
     assert abs(target["arm_left_6_joint"]) > 0.5 and abs(target["arm_right_6_joint"]) > 0.5

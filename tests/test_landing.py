@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from fallbench.dynamics.fall_direction import FallDirection, fall_class
-from fallbench.preimpact.reshape.landing import Candidate, choose, circle_plane_crossings, landing_candidates
 from fallbench.dynamics.model import build_pinocchio
+from fallbench.preimpact.reshape.landing import Candidate, choose, circle_plane_crossings, landing_candidates
 from fallbench.preimpact.reshape.reach import ReachPolyhedron, compute_polyhedra
 from fallbench.preimpact.reshape.surfaces import Surface, scene_surfaces
 from fallbench.scenario import Box, Scenario
@@ -34,7 +34,9 @@ def _pitch(deg: float) -> np.ndarray:
 
 def test_fall_direction_is_eq2_and_falls_back_to_the_lean() -> None:
     direction = FallDirection(np.array([0.1, 0.2, 0.9]))
-    np.testing.assert_allclose(direction.update(np.array([0.4, 0.6, 0.5]), Z), [0.6, 0.8, 0.0])  # (0.3, 0.4)/0.5
+    np.testing.assert_allclose(
+        direction.update(np.array([0.4, 0.6, 0.5]), Z), [0.6, 0.8, 0.0]
+    )  # (0.3, 0.4)/0.5
     np.testing.assert_allclose(direction.update(np.array([0.1, 0.2, 0.8]), _pitch(20) @ Z), X, atol=1e-12)
 
 
@@ -47,14 +49,18 @@ def test_fall_class_relative_to_the_torso(direction: np.ndarray, expected: str) 
 
 
 def test_circle_crosses_planes_where_hand_computation_says() -> None:
-    assert [abs(phi) for phi in circle_plane_crossings(np.zeros(3), 1.0, X, _horizontal(0.0))] == pytest.approx([0.0, math.pi])
+    assert [
+        abs(phi) for phi in circle_plane_crossings(np.zeros(3), 1.0, X, _horizontal(0.0))
+    ] == pytest.approx([0.0, math.pi])
     phis = circle_plane_crossings(np.zeros(3), 1.0, X, _horizontal(0.5))
     assert phis == pytest.approx([math.pi / 6, 5 * math.pi / 6])
     assert circle_plane_crossings(np.zeros(3), 1.0, X, _horizontal(1.5)) == []
 
 
 def test_mpip_bip_and_selection() -> None:
-    cube = ReachPolyhedron(np.array([[x, y, z] for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (-0.3, 0.3)]))
+    cube = ReachPolyhedron(
+        np.array([[x, y, z] for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (-0.3, 0.3)])
+    )
     shoulder = np.array([0.0, 0.0, 1.0])
     table = _horizontal(0.5, center_x=2.0, half=0.5)  # spans x in [1.5, 2.5]
     floor = _horizontal(0.0)
@@ -68,7 +74,9 @@ def test_mpip_bip_and_selection() -> None:
     assert on_floor.reachable  # BIP = MPIP
     assert choose(candidates) is on_floor  # the only reachable one
     big = ReachPolyhedron(cube.vertices * 3)
-    assert choose(landing_candidates(np.zeros(3), shoulder, X, [floor, table], np.eye(3), big)).surface is table  # highest
+    assert (
+        choose(landing_candidates(np.zeros(3), shoulder, X, [floor, table], np.eye(3), big)).surface is table
+    )  # highest
 
 
 def test_nearest_bip_when_none_is_reachable() -> None:
@@ -80,9 +88,20 @@ def test_nearest_bip_when_none_is_reachable() -> None:
 
 
 def test_box_faces_and_closest_point() -> None:
-    surfaces = scene_surfaces(Scenario(name="t", duration=1.0, obstacles=[Box(type="box", pos=(1.0, 0.0, 0.5), size=(0.4, 0.6, 1.0))]))
+    surfaces = scene_surfaces(
+        Scenario(
+            name="t", duration=1.0, obstacles=[Box(type="box", pos=(1.0, 0.0, 0.5), size=(0.4, 0.6, 1.0))]
+        )
+    )
     names = [s.name for s in surfaces]
-    assert names == ["floor", "obstacle_0:top", "obstacle_0:+x", "obstacle_0:-x", "obstacle_0:+y", "obstacle_0:-y"]
+    assert names == [
+        "floor",
+        "obstacle_0:top",
+        "obstacle_0:+x",
+        "obstacle_0:-x",
+        "obstacle_0:+y",
+        "obstacle_0:-y",
+    ]
     top, front = surfaces[1], surfaces[3]
     np.testing.assert_allclose(top.closest_point(np.array([2.0, 0.1, 3.0])), [1.2, 0.1, 1.0])
     np.testing.assert_allclose(front.normal, -X)
@@ -98,4 +117,6 @@ def test_reach_polyhedra_split_by_the_coronal_plane() -> None:
     assert front.contains(np.zeros(3))  # the centroid
     assert not front.contains(np.array([1.0, 0.0, 0.0]))  # beyond the arm's length (~0.6 m)
     extent = polyhedra["left:front"].max(axis=0) - polyhedra["left:front"].min(axis=0)
-    assert 0.3 < extent[0] < 0.8 and 0.6 < extent[2] < 1.4  # half the reach forward, the full reach vertically
+    assert (
+        0.3 < extent[0] < 0.8 and 0.6 < extent[2] < 1.4
+    )  # half the reach forward, the full reach vertically

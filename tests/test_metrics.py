@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fallbench.analysis.metrics import imu_metrics, joint_limit_margins, landing_metrics, moving_average, torque_metrics
+from fallbench.analysis.metrics import (
+    imu_metrics,
+    joint_limit_margins,
+    landing_metrics,
+    moving_average,
+    torque_metrics,
+)
 
 
 def test_imu_peaks_raw_and_smoothed() -> None:
@@ -47,24 +53,40 @@ def test_damage_measures_on_hand_made_signals() -> None:
 
     from fallbench.analysis.metrics import damage_metrics
 
-    robot = SimpleNamespace(torque_chains={"legs": r"leg_.*", "arms": r"arm_.*"},
-                            vulnerable_parts={"head": ("head_link",), "gripper_left": ("gripper_a", "gripper_b")})
+    robot = SimpleNamespace(
+        torque_chains={"legs": r"leg_.*", "arms": r"arm_.*"},
+        vulnerable_parts={"head": ("head_link",), "gripper_left": ("gripper_a", "gripper_b")},
+    )
     model = SimpleNamespace(body_subtreemass=np.array([0.0, 10.0]))
-    world = SimpleNamespace(model=model, root_body=1, robot=robot, joint_names=("leg_1", "leg_2", "arm_1"),
-                            contact_bodies=["head_link", "gripper_a", "gripper_b", "foot"], contact_found_columns=np.array([0, 1, 2, 3]))
+    world = SimpleNamespace(
+        model=model,
+        root_body=1,
+        robot=robot,
+        joint_names=("leg_1", "leg_2", "arm_1"),
+        contact_bodies=["head_link", "gripper_a", "gripper_b", "foot"],
+        contact_found_columns=np.array([0, 1, 2, 3]),
+    )
     sensordata = np.zeros((4, 4))
     sensordata[2, 1] = sensordata[3, 2] = 1  # both bodies of the left gripper touch: one part
     sensordata[:, 3] = 1  # the foot is not vulnerable
     torques = np.array([[10.0, -150.0, 3.0], [20.0, 40.0, -30.0], [0, 0, 0], [0, 0, 0]])
     rec = SimpleNamespace(world=world, actuator_force=torques, sensordata=sensordata, steps=4)
-    forces = {"total": np.array([0.0, 981.0, 196.2, 0.0]), "head": np.zeros(4), "torso": np.array([0.0, 98.1, 0, 0])}
+    forces = {
+        "total": np.array([0.0, 981.0, 196.2, 0.0]),
+        "head": np.zeros(4),
+        "torso": np.array([0.0, 98.1, 0, 0]),
+    }
     row = damage_metrics(rec, forces)
     assert row["contact_force_peak_bw"] == pytest.approx(10.0)  # 981 N on a 10 kg robot
-    assert row["contact_force_peak_head_bw"] == 0.0 and row["contact_force_peak_torso_bw"] == pytest.approx(1.0)
+    assert row["contact_force_peak_head_bw"] == 0.0 and row["contact_force_peak_torso_bw"] == pytest.approx(
+        1.0
+    )
     assert row["torque_peak_legs"] == 150.0 and row["torque_peak_arms"] == 30.0
     assert row["vulnerable_hits"] == 1
     sensordata[1, 0] = 1  # and the head
     assert damage_metrics(rec, forces)["vulnerable_hits"] == 2
+
+
 def test_landing_window_metrics_see_only_the_landing() -> None:
     """Peaks inside [impact, impact + 0.15 s] count; a bigger one 0.2 s later (the fall) does not."""
     time = np.arange(1000) * 0.001
@@ -81,8 +103,16 @@ def test_landing_window_metrics_see_only_the_landing() -> None:
     demand[460, 1] = 80.0  # joint 1 switches only at 0.47 s: not counted ...
     demand[480, 1] = 30.0  # ... this one is: ratio 3
     demand[700, 0] = 1e4  # outside the window
-    row = landing_metrics(time, acc, demand, limit, switch_time=np.array([0.451, 0.47]),
-                          failure_times=[0.3, 0.455, 0.6, 0.605], impact=0.45, takeover=0.451)
+    row = landing_metrics(
+        time,
+        acc,
+        demand,
+        limit,
+        switch_time=np.array([0.451, 0.47]),
+        failure_times=[0.3, 0.455, 0.6, 0.605],
+        impact=0.45,
+        takeover=0.451,
+    )
     assert row["imu_peak_z_landing"] == 80.0
     assert np.isclose(row["imu_peak_norm_landing"], 100.0)  # hypot(60, 80)
     assert row["torque_demand_ratio_landing"] == 3.0
@@ -94,6 +124,8 @@ def test_landing_window_metrics_see_only_the_landing() -> None:
 
 def test_landing_metrics_without_impact_are_empty() -> None:
     time = np.arange(10) * 0.001
-    row = landing_metrics(time, np.ones((10, 3)), np.ones((10, 2)), np.ones(2), np.full(2, np.nan), [], None, None)
+    row = landing_metrics(
+        time, np.ones((10, 3)), np.ones((10, 2)), np.ones(2), np.full(2, np.nan), [], None, None
+    )
     assert np.isnan(row["imu_peak_z_landing"]) and np.isnan(row["torque_demand_ratio_landing"])
     assert row["qp_failures_landing"] == 0 and np.isnan(row["takeover_delay"])

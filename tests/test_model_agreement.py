@@ -10,10 +10,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.sim import world as world_module
 from fallbench.dynamics.model import build_pinocchio, pinocchio_for
 from fallbench.robots import ROBOTS
 from fallbench.scenario import Scenario
+from fallbench.sim import world as world_module
 from fallbench.sim.world import build_world, initial_state
 
 
@@ -78,7 +78,9 @@ def test_armature_is_in_both_models(robot: str) -> None:
     P = build_pinocchio(world)
     joints = [world.joint_names.index(j) for j in world.robot.armature]
     assert joints, "every registered robot declares its rotor inertias"
-    np.testing.assert_allclose(world.model.dof_armature[world.qvel_adr[joints]], list(world.robot.armature.values()))
+    np.testing.assert_allclose(
+        world.model.dof_armature[world.qvel_adr[joints]], list(world.robot.armature.values())
+    )
     np.testing.assert_allclose(P.model.armature[P.actuated_v], world.model.dof_armature[world.qvel_adr])
     if robot == "talos":  # the SRDF's rotor_params: 1e-5 kg m^2 x gear ratio 100^2
         np.testing.assert_allclose(world.model.dof_armature[world.qvel_adr[joints]], 0.1)

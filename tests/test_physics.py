@@ -8,11 +8,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from fallbench.registry import simulate_named
-from fallbench.sim.events import tilt_deg
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.registry import simulate_named
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.scenario import Scenario
+from fallbench.sim.events import tilt_deg
 from fallbench.sim.world import build_world, initial_state
 
 
@@ -35,7 +35,10 @@ def test_standing_robot_reads_gravity_and_its_weight(robot: str) -> None:
     mass = world.model.body_subtreemass[world.root_body]
     acc = world.sensor(data.sensordata, "imu_acc")
     assert abs(np.linalg.norm(acc) - 9.81) < 0.2 and acc[2] > 9.5  # specific force, z up, at rest
-    assert abs(np.linalg.norm(world.sensor(data.sensordata, "contact:total")[1:4]) - mass * 9.81) < 0.02 * mass * 9.81
+    assert (
+        abs(np.linalg.norm(world.sensor(data.sensordata, "contact:total")[1:4]) - mass * 9.81)
+        < 0.02 * mass * 9.81
+    )
     assert abs(mass - get_robot(robot).mass) < 1e-6  # kg, the URDF's links, all simulated
 
 
@@ -46,7 +49,10 @@ def test_robot_stands_still_for_2_s_under_stiff(robot: str) -> None:
     world = build_world(scenario)
     data = initial_state(world, scenario)
     mujoco.mj_collision(world.model, data)
-    bodies = [(world.model.geom_bodyid[c.geom1], world.model.geom_bodyid[c.geom2]) for c in data.contact[: data.ncon]]
+    bodies = [
+        (world.model.geom_bodyid[c.geom1], world.model.geom_bodyid[c.geom2])
+        for c in data.contact[: data.ncon]
+    ]
     assert all(0 in pair for pair in bodies), "robot parts touch each other in the default stance"
     rec = simulate_named(scenario, "stiff")
     assert rec.status == "ok" and rec.fall_time is None
@@ -68,15 +74,22 @@ def test_zero_gains_reach_the_knee_stop_and_stiff_does_not(drop_scenario: Scenar
 
 def test_push_direction_moves_the_robot_that_way() -> None:
     for direction, axis, sign in ((0, 0, 1), (90, 1, 1), (180, 0, -1)):
-        scenario = Scenario(name="p", duration=0.6, push={"force": 200, "duration": 0.2, "start": 0.0, "direction": direction})
+        scenario = Scenario(
+            name="p", duration=0.6, push={"force": 200, "duration": 0.2, "start": 0.0, "direction": direction}
+        )
         rec = simulate_named(scenario, "stiff")
         assert sign * (rec.qpos[-1, axis] - rec.qpos[0, axis]) > 0.02
 
 
 def test_diverging_run_is_flagged() -> None:
     # the largest push allowed, on the lightest body, at the coarsest step
-    scenario = Scenario(name="boom", duration=0.3, physics_dt=0.01, control_dt=0.01,
-                        push={"force": 10_000, "duration": 0.1, "start": 0.0, "body": "gripper_left_fingertip_1_link"})
+    scenario = Scenario(
+        name="boom",
+        duration=0.3,
+        physics_dt=0.01,
+        control_dt=0.01,
+        push={"force": 10_000, "duration": 0.1, "start": 0.0, "body": "gripper_left_fingertip_1_link"},
+    )
     rec = simulate_named(scenario, "stiff")
     assert rec.status == "diverged" and "BADQ" in rec.error
     assert rec.steps < 30

@@ -13,9 +13,9 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from fallbench.results import store
-from fallbench.cli import app
 from fallbench.analysis.metrics import REPLAY_RATE
+from fallbench.cli import app
+from fallbench.results import store
 
 DROP = "name: drop\nduration: 0.3\ninitial: {height: 0.1}\n"
 
@@ -24,7 +24,10 @@ DROP = "name: drop\nduration: 0.3\ninitial: {height: 0.1}\n"
 def stored(tmp_path_factory) -> tuple[Path, str]:
     folder = tmp_path_factory.mktemp("render")
     (folder / "drop.yaml").write_text(DROP)
-    result = CliRunner().invoke(app, ["run", "one", str(folder / "drop.yaml"), "--policy", "zero", "--results", str(folder / "results")])
+    result = CliRunner().invoke(
+        app,
+        ["run", "one", str(folder / "drop.yaml"), "--policy", "zero", "--results", str(folder / "results")],
+    )
     assert result.exit_code == 0, result.output
     run_id = next((folder / "results" / "runs").iterdir()).name
     return folder / "results", run_id
@@ -43,19 +46,40 @@ def test_render_without_gl_is_one_line_and_exit_2(stored: tuple[Path, str], tmp_
     results, run_id = stored
     out = tmp_path / "fall.mp4"
     env = os.environ | {"MUJOCO_GL": "disabled"}  # no OpenGL backend at all
-    done = subprocess.run([sys.executable, "-m", "fallbench.cli", "render", run_id[:6], "--results", str(results), "--out", str(out)],
-                          env=env, capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fallbench.cli",
+            "render",
+            run_id[:6],
+            "--results",
+            str(results),
+            "--out",
+            str(out),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 2, done.stderr
     message = done.stderr.strip()
-    assert "\n" not in message and message.startswith("error: no OpenGL context for offscreen rendering (MUJOCO_GL=disabled")
+    assert "\n" not in message and message.startswith(
+        "error: no OpenGL context for offscreen rendering (MUJOCO_GL=disabled"
+    )
     assert not out.exists()
 
 
 def test_render_rejects_unknown_runs_and_formats(stored: tuple[Path, str], tmp_path: Path) -> None:
     results, _ = stored
-    unknown = CliRunner().invoke(app, ["render", "ffff", "--results", str(results), "--out", str(tmp_path / "x.mp4")])
+    unknown = CliRunner().invoke(
+        app, ["render", "ffff", "--results", str(results), "--out", str(tmp_path / "x.mp4")]
+    )
     assert unknown.exit_code == 2 and "no stored run with id 'ffff'" in unknown.stderr
-    bad = CliRunner().invoke(app, ["render", "ffff", "--results", str(results), "--out", str(tmp_path / "x.avi")])
+    bad = CliRunner().invoke(
+        app, ["render", "ffff", "--results", str(results), "--out", str(tmp_path / "x.avi")]
+    )
     assert bad.exit_code == 2 and "expected a .mp4 or .gif" in bad.stderr
 
 
@@ -70,11 +94,30 @@ def test_filmstrip_and_video_where_gl_works(stored: tuple[Path, str], tmp_path: 
     assert strip.name == f"filmstrip_{run_id}.png" and strip.stat().st_size > 20_000
     row = pd.read_parquet(store.run_dir(results, run_id) / store.METRICS).iloc[0]
     captions = [c for _, c in key_moments(row, 0.299)]
-    assert captions[0] == "fall detected" and captions[-1] == "end" and any("first impact" in c for c in captions)
-    result = CliRunner().invoke(app, ["render", run_id, "--vs", run_id, "--results", str(results),
-                                      "--out", str(tmp_path / "fall.gif"), "--fps", "10"])
+    assert (
+        captions[0] == "fall detected"
+        and captions[-1] == "end"
+        and any("first impact" in c for c in captions)
+    )
+    result = CliRunner().invoke(
+        app,
+        [
+            "render",
+            run_id,
+            "--vs",
+            run_id,
+            "--results",
+            str(results),
+            "--out",
+            str(tmp_path / "fall.gif"),
+            "--fps",
+            "10",
+        ],
+    )
     assert result.exit_code == 0, result.output
     import imageio.v2 as imageio
 
     frames = imageio.mimread(tmp_path / "fall.gif")
-    assert len(frames) == 3 and frames[0].shape[1] == 2 * frames[0].shape[0] * 4 // 3  # two 4:3 views side by side
+    assert (
+        len(frames) == 3 and frames[0].shape[1] == 2 * frames[0].shape[0] * 4 // 3
+    )  # two 4:3 views side by side

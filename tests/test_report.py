@@ -24,8 +24,24 @@ def test_report_writes_figures_tables_and_html(tmp_path: Path) -> None:
     suite = tmp_path / "drop.yaml"
     suite.write_text(SUITE)
     results, out = tmp_path / "results", tmp_path / "reports"
-    run = CliRunner().invoke(app, ["run", "sweep", str(suite), "--policies", "stiff,zero", "--results", str(results),
-                                   "--reports", str(out), "--jobs", "1", "--pre-impact", "none"])
+    run = CliRunner().invoke(
+        app,
+        [
+            "run",
+            "sweep",
+            str(suite),
+            "--policies",
+            "stiff,zero",
+            "--results",
+            str(results),
+            "--reports",
+            str(out),
+            "--jobs",
+            "1",
+            "--pre-impact",
+            "none",
+        ],
+    )
     assert run.exit_code == 0, run.output
     result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out)])
     assert result.exit_code == 0, result.output
@@ -41,8 +57,20 @@ def test_report_writes_figures_tables_and_html(tmp_path: Path) -> None:
     assert family.count('<img src="fig6a_') == 2
     assert "| 1 m drop" in (out / "summary.md").read_text()
 
-    listed = CliRunner().invoke(app, ["results", "--results", str(results), "--where", "policy == 'zero'",
-                                      "--columns", "point,policy,knee_limit_margin", "--format", "json"])
+    listed = CliRunner().invoke(
+        app,
+        [
+            "results",
+            "--results",
+            str(results),
+            "--where",
+            "policy == 'zero'",
+            "--columns",
+            "point,policy,knee_limit_margin",
+            "--format",
+            "json",
+        ],
+    )
     assert listed.exit_code == 0, listed.output
     rows = json.loads(listed.output)
     assert len(rows) == 2 and {r["policy"] for r in rows} == {"zero"}
@@ -51,21 +79,28 @@ def test_report_writes_figures_tables_and_html(tmp_path: Path) -> None:
 
 
 def test_report_without_a_store_is_a_clear_error(tmp_path: Path) -> None:
-    result = CliRunner().invoke(app, ["report", "--results", str(tmp_path / "none"), "--out", str(tmp_path / "r")])
+    result = CliRunner().invoke(
+        app, ["report", "--results", str(tmp_path / "none"), "--out", str(tmp_path / "r")]
+    )
     assert result.exit_code == 2 and "no results store" in result.stderr
 
 
 def test_claims_verdicts_follow_the_numbers() -> None:
-    rows = pd.DataFrame({
-        "scenario": "drop", "status": "ok", "pre_impact": "none", "param:initial.height": 1.0,
-        "policy": ["stiff", "oneshot", "zero", "adaptive_qp"],
-        "imu_peak_z_landing": [300.0, 200.0, 250.0, 100.0],
-        "imu_peak_z": [300.0, 400.0, 250.0, 500.0],  # whole episode: the later fall, not judged
-        "knee_limit_margin": [0.5, -0.01, -0.02, 0.3],
-        "torque_demand_ratio_landing": [5.0, 0.0, 0.0, 0.9],
-        "torque_demand_ratio_max": [5.0, 0.5, 0.4, 3.0],
-        "torque_ratio_max": [1.0, 0.5, 0.4, 0.9],
-    })
+    rows = pd.DataFrame(
+        {
+            "scenario": "drop",
+            "status": "ok",
+            "pre_impact": "none",
+            "param:initial.height": 1.0,
+            "policy": ["stiff", "oneshot", "zero", "adaptive_qp"],
+            "imu_peak_z_landing": [300.0, 200.0, 250.0, 100.0],
+            "imu_peak_z": [300.0, 400.0, 250.0, 500.0],  # whole episode: the later fall, not judged
+            "knee_limit_margin": [0.5, -0.01, -0.02, 0.3],
+            "torque_demand_ratio_landing": [5.0, 0.0, 0.0, 0.9],
+            "torque_demand_ratio_max": [5.0, 0.5, 0.4, 3.0],
+            "torque_ratio_max": [1.0, 0.5, 0.4, 0.9],
+        }
+    )
     table = claims_table(rows)
     assert set(table.verdict[:7]) == {"holds"} and set(table["points holding"][:7]) == {"1/1"}
     rows.loc[rows.policy == "adaptive_qp", "knee_limit_margin"] = -0.1
@@ -73,25 +108,49 @@ def test_claims_verdicts_follow_the_numbers() -> None:
     table = claims_table(rows).set_index("claim")
     assert table.loc["adaptive_qp stays off the knee stop", "verdict"].iloc[0] == "does not hold"
     assert table.loc["adaptive_qp stays off the knee stop", "points holding"].iloc[0] == "0/1"
-    assert table.loc["adaptive_qp has a lower IMU acceleration than stiff (landing)", "verdict"].iloc[0] == "does not hold"
-    assert "whole episode stiff 300.0, oneshot 400.0, zero 250.0, adaptive_qp 500.0" in table.loc["stiff has the highest IMU acceleration (landing)", "numbers"].iloc[0]
+    assert (
+        table.loc["adaptive_qp has a lower IMU acceleration than stiff (landing)", "verdict"].iloc[0]
+        == "does not hold"
+    )
+    assert (
+        "whole episode stiff 300.0, oneshot 400.0, zero 250.0, adaptive_qp 500.0"
+        in table.loc["stiff has the highest IMU acceleration (landing)", "numbers"].iloc[0]
+    )
 
 
 def test_claims_per_baseline_gain_scale() -> None:
     """A sensitivity sweep gets one scope per (gain scale, adaptive_qp setting); the drops' scopes keep scale 1."""
     scales, settings = [0.5, 0.5, 2.0, 2.0], [100.0, 25.0, 100.0, 25.0]
-    rows = pd.DataFrame([{
-        "scenario": "sensitivity", "status": "ok", "pre_impact": "none", "policy": policy,
-        "param:policy_params.stiff.gain_scale": scale, "param:policy_params.adaptive_qp.posture_kp": kp,
-        "imu_peak_z_landing": {"stiff": 100.0 * scale, "adaptive_qp": 150.0}[policy], "imu_peak_z": 300.0,
-        "knee_limit_margin": 0.3, "torque_demand_ratio_landing": 0.5, "torque_demand_ratio_max": 0.5, "torque_ratio_max": 0.5,
-    } for scale, kp in zip(scales, settings) for policy in ("stiff", "adaptive_qp")])
-    other_robot = rows.iloc[:2].assign(robot="g1", scenario="drop", **{"param:policy_params.stiff.gain_scale": float("nan")})
+    rows = pd.DataFrame(
+        [
+            {
+                "scenario": "sensitivity",
+                "status": "ok",
+                "pre_impact": "none",
+                "policy": policy,
+                "param:policy_params.stiff.gain_scale": scale,
+                "param:policy_params.adaptive_qp.posture_kp": kp,
+                "imu_peak_z_landing": {"stiff": 100.0 * scale, "adaptive_qp": 150.0}[policy],
+                "imu_peak_z": 300.0,
+                "knee_limit_margin": 0.3,
+                "torque_demand_ratio_landing": 0.5,
+                "torque_demand_ratio_max": 0.5,
+                "torque_ratio_max": 0.5,
+            }
+            for scale, kp in zip(scales, settings)
+            for policy in ("stiff", "adaptive_qp")
+        ]
+    )
+    other_robot = rows.iloc[:2].assign(
+        robot="g1", scenario="drop", **{"param:policy_params.stiff.gain_scale": float("nan")}
+    )
     rows = pd.concat([rows.assign(robot="talos"), other_robot], ignore_index=True)
     rows = rows.astype({"policy": "string[pyarrow]", "robot": "string[pyarrow]"})  # as the store reads them
     table = claims_table(rows)
-    lower = table[(table["claim"] == "adaptive_qp has a lower IMU acceleration than stiff (landing)")
-                  & (table.robot == "talos")]
+    lower = table[
+        (table["claim"] == "adaptive_qp has a lower IMU acceleration than stiff (landing)")
+        & (table.robot == "talos")
+    ]
     assert dict(zip(lower.scope, lower.verdict)) == {
         "sensitivity: gain scale 0.5, adaptive_qp.posture_kp=25": "does not hold",
         "sensitivity: gain scale 0.5, adaptive_qp.posture_kp=100": "does not hold",
@@ -103,14 +162,19 @@ def test_claims_per_baseline_gain_scale() -> None:
 def test_first_impact_table_counts_by_push_direction() -> None:
     from fallbench.report.preimpact import first_impact_table, push_label
 
-    rows = pd.DataFrame({
-        "scenario": "push_200N", "status": "ok", "param:push.direction": [0, 0, 180, 180, 180],
-        "pre_impact": ["none", "reshape", "none", "reshape", "reshape"],
-        "first_impact_group": ["knees", "hands", "torso", "hands", "knees+feet"],
-        "first_impact_safe": [False, True, False, True, False],
-        "contact_force_peak_head": [100.0, 50.0, 0.0, 0.0, 10.0], "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 6.0],
-        "time_to_first_impact": [0.5, 0.4, 0.7, 0.6, 0.8],
-    })
+    rows = pd.DataFrame(
+        {
+            "scenario": "push_200N",
+            "status": "ok",
+            "param:push.direction": [0, 0, 180, 180, 180],
+            "pre_impact": ["none", "reshape", "none", "reshape", "reshape"],
+            "first_impact_group": ["knees", "hands", "torso", "hands", "knees+feet"],
+            "first_impact_safe": [False, True, False, True, False],
+            "contact_force_peak_head": [100.0, 50.0, 0.0, 0.0, 10.0],
+            "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 6.0],
+            "time_to_first_impact": [0.5, 0.4, 0.7, 0.6, 0.8],
+        }
+    )
     table = first_impact_table(rows).set_index(["push", "pre_impact"])
     assert table.loc[("back", "reshape"), "falls"] == 2
     assert table.loc[("back", "reshape"), "first on hands/feet (%)"] == 50
@@ -118,22 +182,46 @@ def test_first_impact_table_counts_by_push_direction() -> None:
     assert table.loc[("back", "none"), "first on torso/head (%)"] == 100
     assert table.loc[("back", "reshape"), "torso peak median (N)"] == 5
     assert table.loc[("front", "none"), "first on knees (%)"] == 100
-    assert [push_label(d) for d in (0, 45, 90, 180, 225, -90)] == ["front", "front diagonal", "side", "back", "back diagonal", "side"]
+    assert [push_label(d) for d in (0, 45, 90, 180, 225, -90)] == [
+        "front",
+        "front diagonal",
+        "side",
+        "back",
+        "back diagonal",
+        "side",
+    ]
 
 
 def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
     """One line per policy and per adaptive_qp setting; other policies' repeats share their line."""
-    rows = pd.DataFrame([{
-        "scenario": "sensitivity", "status": "ok", "pre_impact": "none", "policy": policy,
-        "param:policy_params.stiff.gain_scale": scale, "param:policy_params.adaptive_qp.posture_kp": kp,
-        "imu_peak_z_landing": scale * (10.0 if policy == "stiff" else kp), "imu_peak_z": 1.0, "knee_limit_margin": 0.1,
-        "torque_demand_ratio_landing": 0.5, "qp_failures_landing": 0, "fell": policy == "stiff",
-    } for scale in (1.0, 2.0) for kp in (100, 25) for policy in ("stiff", "adaptive_qp")])
+    rows = pd.DataFrame(
+        [
+            {
+                "scenario": "sensitivity",
+                "status": "ok",
+                "pre_impact": "none",
+                "policy": policy,
+                "param:policy_params.stiff.gain_scale": scale,
+                "param:policy_params.adaptive_qp.posture_kp": kp,
+                "imu_peak_z_landing": scale * (10.0 if policy == "stiff" else kp),
+                "imu_peak_z": 1.0,
+                "knee_limit_margin": 0.1,
+                "torque_demand_ratio_landing": 0.5,
+                "qp_failures_landing": 0,
+                "fell": policy == "stiff",
+            }
+            for scale in (1.0, 2.0)
+            for kp in (100, 25)
+            for policy in ("stiff", "adaptive_qp")
+        ]
+    )
     swept = sensitivity_runs(rows)
     assert set(swept.line) == {"stiff", "adaptive_qp, posture_kp=100", "adaptive_qp, posture_kp=25"}
     table = sensitivity_table(swept).set_index(["gain_scale", "line"])
     assert table.loc[(2.0, "adaptive_qp, posture_kp=25"), "imu_peak_z_landing"] == 50.0
-    assert table.loc[(2.0, "stiff"), "imu_peak_z_landing"] == 20.0 and table.loc[(2.0, "stiff"), "fell"] == 1.0
+    assert (
+        table.loc[(2.0, "stiff"), "imu_peak_z_landing"] == 20.0 and table.loc[(2.0, "stiff"), "fell"] == 1.0
+    )
     paths = sensitivity_figure(swept, tmp_path)
     assert [p.name for p in paths] == ["sensitivity_gain_scale.png", "sensitivity_gain_scale.svg"]
     assert paths[0].stat().st_size > 10_000
@@ -143,30 +231,62 @@ def test_prescription_and_detection_tables_on_hand_made_rows() -> None:
     from fallbench.report.preimpact import detection_table, prescription_table
 
     nan = float("nan")
-    rows = pd.DataFrame({
-        "scenario": "push_x", "status": "ok", "first_impact_group": ["knees", "knees", "hands", "hands", ""],
-        "pre_impact": ["none", "reshape", "none", "reshape", "none"],
-        "fall_class": ["front", "front", "left", "right", ""],
-        "first_impact_prescribed": [True, False, False, True, False], "knees_simultaneous": [1.0, 0.0, nan, nan, nan],
-        "head_before_hands": [False, True, False, False, False],
-        "contact_force_peak_head": [20000.0, 8000.0, 7000.0, 0.0, 0.0], "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 0.0],
-        "imu_peak_norm": 100.0, "imu_peak_z_5ms": 50.0, "fall_lead_time": [1.2, 1.1, 1.0, 0.9, nan], "fall_reason": "capture_point",
-        "fall_lead_time_capture_point": [1.2, 1.1, 1.0, 0.9, nan], "fall_lead_time_tilt": [0.6, 0.5, nan, 0.4, nan],
-        "fall_lead_time_freefall": nan,
-    })
+    rows = pd.DataFrame(
+        {
+            "scenario": "push_x",
+            "status": "ok",
+            "first_impact_group": ["knees", "knees", "hands", "hands", ""],
+            "pre_impact": ["none", "reshape", "none", "reshape", "none"],
+            "fall_class": ["front", "front", "left", "right", ""],
+            "first_impact_prescribed": [True, False, False, True, False],
+            "knees_simultaneous": [1.0, 0.0, nan, nan, nan],
+            "head_before_hands": [False, True, False, False, False],
+            "contact_force_peak_head": [20000.0, 8000.0, 7000.0, 0.0, 0.0],
+            "contact_force_peak_torso": [1.0, 2.0, 3.0, 4.0, 0.0],
+            "imu_peak_norm": 100.0,
+            "imu_peak_z_5ms": 50.0,
+            "fall_lead_time": [1.2, 1.1, 1.0, 0.9, nan],
+            "fall_reason": "capture_point",
+            "fall_lead_time_capture_point": [1.2, 1.1, 1.0, 0.9, nan],
+            "fall_lead_time_tilt": [0.6, 0.5, nan, 0.4, nan],
+            "fall_lead_time_freefall": nan,
+        }
+    )
     table = prescription_table(rows).set_index(["fall", "pre_impact"])
-    assert table.loc[("front", "none"), "prescribed (%)"] == 100 and table.loc[("front", "reshape"), "knees together"] == "0/1"
-    assert table.loc[("side", "reshape"), "prescribed (%)"] == 100 and table.loc[("side", "none"), "head peak median (N)"] == 7000
-    assert table.loc[("front", "reshape"), "head before hands (%)"] == 100 and len(table) == 4  # the run that did not fall is left out
+    assert (
+        table.loc[("front", "none"), "prescribed (%)"] == 100
+        and table.loc[("front", "reshape"), "knees together"] == "0/1"
+    )
+    assert (
+        table.loc[("side", "reshape"), "prescribed (%)"] == 100
+        and table.loc[("side", "none"), "head peak median (N)"] == 7000
+    )
+    assert (
+        table.loc[("front", "reshape"), "head before hands (%)"] == 100 and len(table) == 4
+    )  # the run that did not fall is left out
     detection = detection_table(rows).set_index("fall")
-    assert detection.loc["front", "capture_point lead median (s)"] == 1.2 and detection.loc["side", "tilt fired (%)"] == 0
+    assert (
+        detection.loc["front", "capture_point lead median (s)"] == 1.2
+        and detection.loc["side", "tilt fired (%)"] == 0
+    )
 
 
 def test_verdict_matrix_has_one_row_per_scope() -> None:
-    claims = pd.DataFrame({"robot": "talos", "scope": ["1 m drop", "1 m drop", "all drops"],
-                           "claim": ["stiff stays off the knee stop", "zero reaches the knee's mechanical stop",
-                                                   "stiff stays off the knee stop"],
-                           "verdict": ["holds", "does not hold", "holds"], "numbers": ""})
+    claims = pd.DataFrame(
+        {
+            "robot": "talos",
+            "scope": ["1 m drop", "1 m drop", "all drops"],
+            "claim": [
+                "stiff stays off the knee stop",
+                "zero reaches the knee's mechanical stop",
+                "stiff stays off the knee stop",
+            ],
+            "verdict": ["holds", "does not hold", "holds"],
+            "numbers": "",
+        }
+    )
     matrix = verdict_matrix(claims).set_index("scope")
     assert list(matrix.columns) == ["robot", "stiff: off the stop", "zero: at the stop"]
-    assert matrix.loc["1 m drop", "zero: at the stop"] == "does not hold" and pd.isna(matrix.loc["all drops", "zero: at the stop"])
+    assert matrix.loc["1 m drop", "zero: at the stop"] == "does not hold" and pd.isna(
+        matrix.loc["all drops", "zero: at the stop"]
+    )

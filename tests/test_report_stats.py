@@ -26,7 +26,9 @@ def test_bootstrap_is_deterministic_and_handles_small_samples() -> None:
     first, again = bootstrap(sample), bootstrap(sample)
     assert (first.value, first.low, first.high) == (again.value, again.low, again.high)
     assert first.low < first.value < first.high and first.n == 25
-    assert bootstrap(sample, "mean", seed=1).low != bootstrap(sample, "mean").low  # the seed is what makes it repeatable
+    assert (
+        bootstrap(sample, "mean", seed=1).low != bootstrap(sample, "mean").low
+    )  # the seed is what makes it repeatable
     single = bootstrap([3.0, np.nan])
     assert single.value == 3.0 and np.isnan(single.low) and single.n == 1 and single.format() == "3 (n=1)"
     constant = bootstrap([2.0, 2.0, 2.0])
@@ -36,11 +38,24 @@ def test_bootstrap_is_deterministic_and_handles_small_samples() -> None:
 
 
 def test_natural_sort_orders_swept_values_by_number() -> None:
-    labels = ["drop[initial.height=1.25]#s0", "drop[initial.height=1]#s0", "drop[initial.height=0.75]#s0",
-              "push[push.direction=-30]#s0", "push[push.direction=30]#s0", "push[push.direction=0]#s10", "push[push.direction=0]#s2"]
+    labels = [
+        "drop[initial.height=1.25]#s0",
+        "drop[initial.height=1]#s0",
+        "drop[initial.height=0.75]#s0",
+        "push[push.direction=-30]#s0",
+        "push[push.direction=30]#s0",
+        "push[push.direction=0]#s10",
+        "push[push.direction=0]#s2",
+    ]
     assert natural_sorted(labels) == [
-        "drop[initial.height=0.75]#s0", "drop[initial.height=1]#s0", "drop[initial.height=1.25]#s0",
-        "push[push.direction=-30]#s0", "push[push.direction=0]#s2", "push[push.direction=0]#s10", "push[push.direction=30]#s0"]
+        "drop[initial.height=0.75]#s0",
+        "drop[initial.height=1]#s0",
+        "drop[initial.height=1.25]#s0",
+        "push[push.direction=-30]#s0",
+        "push[push.direction=0]#s2",
+        "push[push.direction=0]#s10",
+        "push[push.direction=30]#s0",
+    ]
 
 
 def _family(seed: int = 0) -> pd.DataFrame:
@@ -48,11 +63,28 @@ def _family(seed: int = 0) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
     rows = []
     for point in range(20):
-        for strategy, policy, head in (("none", "stiff", 1000.0), ("none", "zero", 1000.0), ("reshape", "zero", 500.0)):
-            rows.append({"scenario": "fam", "point": f"fam#s{point}", "status": "ok", "pre_impact": strategy, "policy": policy,
-                         "imu_peak_z": 100 + rng.normal(0, 5), "contact_force_peak_head": head * (1 + rng.normal(0, 0.05)),
-                         "contact_force_peak_torso": 800 + rng.normal(0, 20), "knee_limit_margin": 0.5, "joint_limit_hits": 0,
-                         "fell": True, "contact_force_peak_head_bw": head / 900, "vulnerable_hits": 1 if head > 600 else 0})
+        for strategy, policy, head in (
+            ("none", "stiff", 1000.0),
+            ("none", "zero", 1000.0),
+            ("reshape", "zero", 500.0),
+        ):
+            rows.append(
+                {
+                    "scenario": "fam",
+                    "point": f"fam#s{point}",
+                    "status": "ok",
+                    "pre_impact": strategy,
+                    "policy": policy,
+                    "imu_peak_z": 100 + rng.normal(0, 5),
+                    "contact_force_peak_head": head * (1 + rng.normal(0, 0.05)),
+                    "contact_force_peak_torso": 800 + rng.normal(0, 20),
+                    "knee_limit_margin": 0.5,
+                    "joint_limit_hits": 0,
+                    "fell": True,
+                    "contact_force_peak_head_bw": head / 900,
+                    "vulnerable_hits": 1 if head > 600 else 0,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -84,8 +116,8 @@ def test_changes_against_the_unprotected_fall_are_paired_by_point() -> None:
 def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
     """Overview answers first, per robot and family, links its figures; one page per family;
     points in natural order; no filmstrips without drop or push runs, and no error."""
-    from fallbench.results import store
     from fallbench.report import build_report
+    from fallbench.results import store
 
     rng = np.random.default_rng(3)
     results, out = tmp_path / "results", tmp_path / "reports"
@@ -96,14 +128,34 @@ def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
                 for seed in range(3):
                     for strategy, policy in (("none", "stiff"), ("none", "zero"), ("reshape", "zero")):
                         n += 1
-                        row = {"run_id": f"r{n:04d}", "robot": robot, "scenario": family, "point": f"{family}[x={x:g}]#s{seed}",
-                               "status": "ok", "error": "", "pre_impact": strategy, "policy": policy, "seed": seed, "param:x": x,
-                               "imu_peak_z": 100 + 10 * rng.random(), "contact_force_peak_head": 1000 * rng.random(),
-                               "contact_force_peak_torso": 500.0, "knee_limit_margin": 0.3, "joint_limit_hits": 0,
-                               "torque_demand_ratio_max": 1.0, "contact_force_peak": 2000.0, "fell": True,
-                               "first_impact_group": "hands", "first_impact_safe": True, "obstacle_force_peak": 0.0,
-                               "landing_error": np.nan, "time_to_first_impact": 0.5, "contact_force_peak_bw": 2.0,
-                               "vulnerable_hits": 0, "impact_time": 0.5}
+                        row = {
+                            "run_id": f"r{n:04d}",
+                            "robot": robot,
+                            "scenario": family,
+                            "point": f"{family}[x={x:g}]#s{seed}",
+                            "status": "ok",
+                            "error": "",
+                            "pre_impact": strategy,
+                            "policy": policy,
+                            "seed": seed,
+                            "param:x": x,
+                            "imu_peak_z": 100 + 10 * rng.random(),
+                            "contact_force_peak_head": 1000 * rng.random(),
+                            "contact_force_peak_torso": 500.0,
+                            "knee_limit_margin": 0.3,
+                            "joint_limit_hits": 0,
+                            "torque_demand_ratio_max": 1.0,
+                            "contact_force_peak": 2000.0,
+                            "fell": True,
+                            "first_impact_group": "hands",
+                            "first_impact_safe": True,
+                            "obstacle_force_peak": 0.0,
+                            "landing_error": np.nan,
+                            "time_to_first_impact": 0.5,
+                            "contact_force_peak_bw": 2.0,
+                            "vulnerable_hits": 0,
+                            "impact_time": 0.5,
+                        }
                         store.write_run(results, row["run_id"], {"point": row["point"]}, row, None)
     store.consolidate(results)
     paths = build_report(results, out, progress=False)

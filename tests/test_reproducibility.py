@@ -37,8 +37,25 @@ TIMINGS = re.compile(r"_ms(_|$)|^wall_time_s$")  # wall-clock figures differ fro
 
 
 def _sweep(path: Path, results: Path, jobs: int) -> pd.DataFrame:
-    command = [sys.executable, "-m", "fallbench.cli", "run", "sweep", str(path), "--results", str(results), "--jobs", str(jobs),
-               "--policies", "adaptive_qp", "--pre-impact", "none", "--reports", str(results / "rep"), "--no-progress"]
+    command = [
+        sys.executable,
+        "-m",
+        "fallbench.cli",
+        "run",
+        "sweep",
+        str(path),
+        "--results",
+        str(results),
+        "--jobs",
+        str(jobs),
+        "--policies",
+        "adaptive_qp",
+        "--pre-impact",
+        "none",
+        "--reports",
+        str(results / "rep"),
+        "--no-progress",
+    ]
     done = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     table = load_metrics(results).set_index("run_id").sort_index()
@@ -51,7 +68,11 @@ def test_qp_runs_are_bit_identical_across_processes_and_job_counts(tmp_path: Pat
     path.write_text(SCENARIOS)
     first = _sweep(path, tmp_path / "first", 1)
     for suffix in ("", "_daqp"):
-        assert first.loc[first.scenario == "qp_push" + suffix, "preimpact_qp_steps"].iloc[0] > 10  # the reshaping QP ran
-        assert first.loc[first.scenario == "qp_drop" + suffix, "qp_steps"].iloc[0] > 10  # the adaptive-gain QP ran
+        assert (
+            first.loc[first.scenario == "qp_push" + suffix, "preimpact_qp_steps"].iloc[0] > 10
+        )  # the reshaping QP ran
+        assert (
+            first.loc[first.scenario == "qp_drop" + suffix, "qp_steps"].iloc[0] > 10
+        )  # the adaptive-gain QP ran
     pd.testing.assert_frame_equal(first, _sweep(path, tmp_path / "second", 1))
     pd.testing.assert_frame_equal(first, _sweep(path, tmp_path / "two_jobs", 2))

@@ -5,12 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fallbench.registry import simulate_named
-from fallbench.sim.recorder import Recording
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.registry import simulate_named
 from fallbench.scenario import Push, Scenario
+from fallbench.sim.recorder import Recording
 
-BACK_PUSH = Scenario(name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1))
+BACK_PUSH = Scenario(
+    name="back_push", duration=1.5, push=Push(force=200, direction=180, duration=0.2, start=0.1)
+)
 
 
 @pytest.fixture(scope="module")
@@ -48,5 +50,7 @@ def test_reshape_metrics(reshaped: Recording) -> None:
     assert 0 < row["landing_error"] < 2.0  # m from the chosen BIP to the wrist's first contact
     assert row["time_to_first_impact"] == pytest.approx(reshaped.impact_events[0].t - reshaped.fall_time)
     assert row["first_impact_group"] == "hands" and row["first_impact_safe"]
-    assert row["first_impact_prescribed"] and not row["head_before_hands"]  # 000 Sec. IV-C: hands before the buttocks
+    assert (
+        row["first_impact_prescribed"] and not row["head_before_hands"]
+    )  # 000 Sec. IV-C: hands before the buttocks
     assert np.isnan(row["knees_simultaneous"])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -57,8 +57,10 @@ def test_vector_orientation(P: PinocchioModel) -> None:
 
 def test_relative_distance(P: PinocchioModel) -> None:
     up, wall = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])
-    task = RelativeDistanceTask(SurfacePair(BodyPoint("arm_left_7_link", np.array([0.0, 0.0, -0.05])), np.array([0, 0, 0.3]), up),
-                                SurfacePair(BodyPoint("arm_right_7_link", np.zeros(3)), np.array([0.8, 0, 0]), wall))
+    task = RelativeDistanceTask(
+        SurfacePair(BodyPoint("arm_left_7_link", np.array([0.0, 0.0, -0.05])), np.array([0, 0, 0.3]), up),
+        SurfacePair(BodyPoint("arm_right_7_link", np.zeros(3)), np.array([0.8, 0, 0]), wall),
+    )
     _check(P, task.compute, 1)
     q = pin.neutral(P.model)
     _kinematics(P, q, np.zeros(P.model.nv))
@@ -75,4 +77,6 @@ def test_surface_position(P: PinocchioModel) -> None:
     q = pin.neutral(P.model)
     _kinematics(P, q, np.zeros(P.model.nv))
     wrist = P.data.oMf[P.model.getFrameId("arm_left_7_link")].translation
-    np.testing.assert_allclose(task.compute(P.model, P.data)[0], wrist[:2] - [0.5, 0.2], atol=1e-12)  # normal part ignored
+    np.testing.assert_allclose(
+        task.compute(P.model, P.data)[0], wrist[:2] - [0.5, 0.2], atol=1e-12
+    )  # normal part ignored

@@ -28,15 +28,22 @@ def _robot_names() -> set[str]:
 
 
 def _docstrings(tree: ast.AST) -> set[int]:
-    nodes = [n for n in ast.walk(tree) if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))]
+    nodes = [
+        n
+        for n in ast.walk(tree)
+        if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+    ]
     return {id(n.body[0].value) for n in nodes if n.body and isinstance(n.body[0], ast.Expr)}
 
 
 def _strings(tree: ast.AST) -> list[str]:
     """String literals (f-string parts included), docstrings left out."""
     skip = _docstrings(tree)
-    return [node.value for node in ast.walk(tree)
-            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip]
+    return [
+        node.value
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip
+    ]
 
 
 def _identifiers(tree: ast.AST) -> list[str]:
@@ -56,7 +63,9 @@ def _identifiers(tree: ast.AST) -> list[str]:
 def test_the_scan_sees_every_module_and_would_catch_a_name() -> None:
     assert len(MODULES) > 20 and all("robots" not in p.parts[-2:-1] for p in MODULES)
     assert {"leg_right_4_joint", "right_knee_joint", "torso_2_link", "pelvis"} <= _robot_names()
-    planted = ast.parse('"""Measured on TALOS."""\nTALOS_KNEE = "leg_right_4_joint"\nGROUP = f"arm_{side}_link"')
+    planted = ast.parse(
+        '"""Measured on TALOS."""\nTALOS_KNEE = "leg_right_4_joint"\nGROUP = f"arm_{side}_link"'
+    )
     assert _strings(planted) == ["leg_right_4_joint", "arm_", "_link"]
     assert "TALOS_KNEE" in _identifiers(planted)
 
@@ -66,7 +75,11 @@ def test_module_names_no_robot(path: Path) -> None:
     tree = ast.parse(path.read_text())
     literals = _strings(tree)
     tokens = {token for literal in literals for token in re.findall(r"[A-Za-z0-9_]+", literal)}
-    assert not sorted(tokens & _robot_names()), f"{path.name} names robot joints or bodies; add a field to the robot description"
+    assert not sorted(tokens & _robot_names()), (
+        f"{path.name} names robot joints or bodies; add a field to the robot description"
+    )
     for word in [*ROBOTS, "half_sitting", "half-sitting"]:
-        assert not any(re.search(rf"(^|[^a-z0-9]){re.escape(word)}([^a-z0-9]|$)", text, re.IGNORECASE)
-                       for text in literals + _identifiers(tree)), f"{path.name} names {word!r}"
+        assert not any(
+            re.search(rf"(^|[^a-z0-9]){re.escape(word)}([^a-z0-9]|$)", text, re.IGNORECASE)
+            for text in literals + _identifiers(tree)
+        ), f"{path.name} names {word!r}"

@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import SHIPPED, app
-from fallbench.robots import ROBOTS, get_robot
 from fallbench.registry import check_scenario, load
+from fallbench.robots import ROBOTS, get_robot
 from fallbench.scenario import Scenario, load_scenario_file
 from fallbench.sim.support import body_box_corners
 from fallbench.sim.world import build_world
@@ -41,7 +41,9 @@ def test_robot_sweep_scales_force_by_mass_and_obstacles_by_standing_height(tmp_p
     assert 0.36 < mass < 0.38 and 0.73 < length < 0.75  # 33.3 / 90.3 kg, 0.755 / 1.019 m
     assert g1.scenario.push.force == pytest.approx(200 * mass)
     box, post = g1.scenario.obstacles
-    assert box.pos == pytest.approx((length, 0.0, 0.25 * length)) and box.size == pytest.approx((0.4 * length,) * 2 + (0.5 * length,))
+    assert box.pos == pytest.approx((length, 0.0, 0.25 * length)) and box.size == pytest.approx(
+        (0.4 * length,) * 2 + (0.5 * length,)
+    )
     assert (post.radius, post.height) == pytest.approx((0.1 * length, length))
     assert g1.label == "s[robot=g1]#s0" and g1.swept["scale:force"] == pytest.approx(mass)
 
@@ -58,13 +60,22 @@ def test_robot_option_overrides_every_file() -> None:
     assert points and {p.scenario.robot for p in points} == {"g1"}
     assert all(p.label.startswith(f"{p.scenario.name}[robot=g1") for p in points)
     drops = [p for p in points if p.scenario.name == "drop"]
-    assert sorted({p.scenario.initial.height for p in drops}) == [0.25, 0.5, 0.75, 1.0, 1.25]  # heights are not scaled
+    assert sorted({p.scenario.initial.height for p in drops}) == [
+        0.25,
+        0.5,
+        0.75,
+        1.0,
+        1.25,
+    ]  # heights are not scaled
 
 
-@pytest.mark.parametrize("text, key, reason", [
-    (SCALED.replace("sizes_for: talos", "sizes_for: atlas"), "sizes_for", "unknown robot 'atlas'"),
-    (SCALED + "per_robot:\n  g1: {push.colour: 1}\n", "push.colour", "unknown key"),
-])
+@pytest.mark.parametrize(
+    "text, key, reason",
+    [
+        (SCALED.replace("sizes_for: talos", "sizes_for: atlas"), "sizes_for", "unknown robot 'atlas'"),
+        (SCALED + "per_robot:\n  g1: {push.colour: 1}\n", "push.colour", "unknown key"),
+    ],
+)
 def test_bad_robot_keys_are_one_clear_line(tmp_path: Path, text: str, key: str, reason: str) -> None:
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -90,11 +101,28 @@ def test_every_robot_has_a_default_posture_and_declared_parts() -> None:
 
 
 def test_point_selector_matches_the_robot(tmp_path: Path) -> None:
-    result = CliRunner().invoke(app, ["scenarios", "export", str(ROOT / "scenarios/drop.yaml"), "--point", "robot=g1",
-                                      "--point", "initial.height=0.5", "--out", str(tmp_path / "scene.xml")])
+    result = CliRunner().invoke(
+        app,
+        [
+            "scenarios",
+            "export",
+            str(ROOT / "scenarios/drop.yaml"),
+            "--point",
+            "robot=g1",
+            "--point",
+            "initial.height=0.5",
+            "--out",
+            str(tmp_path / "scene.xml"),
+        ],
+    )
     assert result.exit_code == 0, result.output
-    assert "drop[robot=g1,initial.height=0.5]#s0" in result.output and "pelvis" in (tmp_path / "scene.xml").read_text()
-    ambiguous = CliRunner().invoke(app, ["scenarios", "export", str(ROOT / "scenarios/drop.yaml"), "--point", "initial.height=0.5"])
+    assert (
+        "drop[robot=g1,initial.height=0.5]#s0" in result.output
+        and "pelvis" in (tmp_path / "scene.xml").read_text()
+    )
+    ambiguous = CliRunner().invoke(
+        app, ["scenarios", "export", str(ROOT / "scenarios/drop.yaml"), "--point", "initial.height=0.5"]
+    )
     assert ambiguous.exit_code == 2 and "selects 2 points" in ambiguous.output
 
 

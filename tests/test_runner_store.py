@@ -29,7 +29,14 @@ physics_dt: 0.01
 control_dt: 0.01
 push: {force: 10000, duration: 0.1, start: 0.0, body: gripper_left_fingertip_1_link}
 """
-DETERMINISTIC = ["imu_peak_z", "imu_peak_norm_5ms", "knee_limit_margin", "torque_ratio_max", "contact_force_peak", "impact_time"]
+DETERMINISTIC = [
+    "imu_peak_z",
+    "imu_peak_norm_5ms",
+    "knee_limit_margin",
+    "torque_ratio_max",
+    "contact_force_peak",
+    "impact_time",
+]
 
 
 def _write(tmp_path: Path) -> Path:
@@ -39,8 +46,25 @@ def _write(tmp_path: Path) -> Path:
 
 
 def _sweep(path: Path, results: Path, jobs: int, *extra: str):
-    return CliRunner().invoke(app, ["run", "sweep", str(path), "--results", str(results), "--jobs", str(jobs),
-                                    "--policies", "stiff,zero", "--pre-impact", "none", "--reports", str(results / "rep"), *extra])
+    return CliRunner().invoke(
+        app,
+        [
+            "run",
+            "sweep",
+            str(path),
+            "--results",
+            str(results),
+            "--jobs",
+            str(jobs),
+            "--policies",
+            "stiff,zero",
+            "--pre-impact",
+            "none",
+            "--reports",
+            str(results / "rep"),
+            *extra,
+        ],
+    )
 
 
 def test_failures_are_stored_and_strict_exits_nonzero(tmp_path: Path) -> None:
@@ -72,12 +96,33 @@ def _finished(results: Path) -> int:
 
 
 def _killed_sweep(path: Path, results: Path, sig: int) -> None:
-    cmd = [sys.executable, "-m", "fallbench.cli", "run", "sweep", str(path), "--results", str(results),
-           "--jobs", "1", "--policies", "stiff,oneshot,zero", "--pre-impact", "none", "--reports", str(results / "rep"), "--no-progress"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "fallbench.cli",
+        "run",
+        "sweep",
+        str(path),
+        "--results",
+        str(results),
+        "--jobs",
+        "1",
+        "--policies",
+        "stiff,oneshot,zero",
+        "--pre-impact",
+        "none",
+        "--reports",
+        str(results / "rep"),
+        "--no-progress",
+    ]
     # SIGINT back to its default in the child: a shell's background job inherits it ignored, and
     # the sweep would then run to the end whatever the test sends
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     deadline = time.time() + 120
     while time.time() < deadline and _finished(results) < 2:
         time.sleep(0.05)
@@ -95,8 +140,24 @@ def test_killed_sweep_resumes_without_duplicates(tmp_path: Path) -> None:
         for folder in (results / "runs").iterdir():  # every complete folder is readable
             if not folder.name.startswith("."):
                 pq.read_table(folder / "metrics.parquet")
-        result = CliRunner().invoke(app, ["run", "sweep", str(path), "--results", str(results), "--jobs", "1",
-                                          "--policies", "stiff,oneshot,zero", "--pre-impact", "none", "--reports", str(results / "rep")])
+        result = CliRunner().invoke(
+            app,
+            [
+                "run",
+                "sweep",
+                str(path),
+                "--results",
+                str(results),
+                "--jobs",
+                "1",
+                "--policies",
+                "stiff,oneshot,zero",
+                "--pre-impact",
+                "none",
+                "--reports",
+                str(results / "rep"),
+            ],
+        )
         assert result.exit_code == 0, result.output
         table = load_metrics(results)
         assert len(table) == 12 and table.run_id.is_unique
@@ -105,8 +166,20 @@ def test_killed_sweep_resumes_without_duplicates(tmp_path: Path) -> None:
 
 def test_run_one_prints_metrics_and_export_loads_alone(tmp_path: Path) -> None:
     path = _write(tmp_path)
-    result = CliRunner().invoke(app, ["run", "one", str(path), "--point", "initial.height=0.2", "--policy", "zero",
-                                      "--results", str(tmp_path / "r")])
+    result = CliRunner().invoke(
+        app,
+        [
+            "run",
+            "one",
+            str(path),
+            "--point",
+            "initial.height=0.2",
+            "--policy",
+            "zero",
+            "--results",
+            str(tmp_path / "r"),
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "imu_peak_z" in result.output and "tiny[initial.height=0.2]" in result.output
     ambiguous = CliRunner().invoke(app, ["run", "one", str(path), "--results", str(tmp_path / "r")])

@@ -39,7 +39,9 @@ def _bounds(metadata: list[Any]) -> tuple[bool, bool]:
     return lower, upper
 
 
-def _numeric_fields(annotation: Any, where: str, metadata: list[Any]) -> typing.Iterator[tuple[str, list[Any]]]:
+def _numeric_fields(
+    annotation: Any, where: str, metadata: list[Any]
+) -> typing.Iterator[tuple[str, list[Any]]]:
     origin = typing.get_origin(annotation)
     if origin is typing.Annotated:
         base, *extra = typing.get_args(annotation)
@@ -64,8 +66,13 @@ def test_every_numeric_field_has_a_range() -> None:
 # ---------------------------------------------------------------- mutations of the shipped files
 
 VALUES = st.one_of(
-    st.floats(), st.integers(min_value=-(10**30), max_value=10**30), st.text(max_size=12), st.booleans(), st.none(),
-    st.lists(st.floats(allow_nan=True), max_size=4), st.dictionaries(st.text(max_size=6), st.integers(), max_size=2),
+    st.floats(),
+    st.integers(min_value=-(10**30), max_value=10**30),
+    st.text(max_size=12),
+    st.booleans(),
+    st.none(),
+    st.lists(st.floats(allow_nan=True), max_size=4),
+    st.dictionaries(st.text(max_size=6), st.integers(), max_size=2),
 )
 
 
@@ -103,7 +110,13 @@ def mutated_document(draw: st.DrawFn) -> bytes:
     elif kind == "drop" and isinstance(parent, dict):
         del parent[path[-1]]
     elif isinstance(parent, dict):
-        parent[draw(st.sampled_from(["duration", "seed", "robot", "sweep", "push", "physics_dt", "initial", "extra"]))] = draw(VALUES)
+        parent[
+            draw(
+                st.sampled_from(
+                    ["duration", "seed", "robot", "sweep", "push", "physics_dt", "initial", "extra"]
+                )
+            )
+        ] = draw(VALUES)
     text = io.StringIO()
     YAML(typ="safe", pure=True).dump_all(docs, text)
     return text.getvalue().encode()

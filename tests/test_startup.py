@@ -11,8 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from fallbench.sim import world
 from fallbench.scenario import Scenario
+from fallbench.sim import world
 
 
 def _steps(model: mujoco.MjModel) -> np.ndarray:
@@ -52,5 +52,7 @@ print("numba" in sys.modules)
 def test_only_qp_runs_load_numba(policy: str, loaded: str) -> None:
     """Numba costs a process ~0.6 s to load (README): an episode through impact (impact metrics
     included) loads it only when a QP runs."""
-    result = subprocess.run([sys.executable, "-c", LOADS_NUMBA.format(policy=policy)], capture_output=True, text=True, check=True)
+    result = subprocess.run(
+        [sys.executable, "-c", LOADS_NUMBA.format(policy=policy)], capture_output=True, text=True, check=True
+    )
     assert result.stdout.strip().splitlines()[-1] == loaded

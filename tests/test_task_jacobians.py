@@ -3,7 +3,7 @@ J v is the error's rate and the drift is the rate of J v (J_dot q_dot), at rando
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -42,19 +42,27 @@ def _vector_orientation(P: PinocchioModel, terms: ModelTerms) -> Terms:
 
 
 def _surface_position(P: PinocchioModel, terms: ModelTerms) -> Terms:
-    task = SurfacePositionTask(BodyPoint("arm_right_7_link", np.array([0.0, 0.0, -0.05])), np.array([0.5, 0.2, 0.0]), np.eye(3)[:2])
+    task = SurfacePositionTask(
+        BodyPoint("arm_right_7_link", np.array([0.0, 0.0, -0.05])), np.array([0.5, 0.2, 0.0]), np.eye(3)[:2]
+    )
     return task.compute(P.model, P.data)
 
 
 def _relative_distance(P: PinocchioModel, terms: ModelTerms) -> Terms:
-    task = RelativeDistanceTask(SurfacePair(BodyPoint("arm_left_7_link", np.array([0.0, 0.0, -0.05])), np.array([0, 0, 0.3]), UP),
-                                SurfacePair(BodyPoint("arm_right_7_link", np.array([0.0, 0.0, -0.05])), np.array([0.8, 0, 0]), -WALL))
+    task = RelativeDistanceTask(
+        SurfacePair(BodyPoint("arm_left_7_link", np.array([0.0, 0.0, -0.05])), np.array([0, 0, 0.3]), UP),
+        SurfacePair(BodyPoint("arm_right_7_link", np.array([0.0, 0.0, -0.05])), np.array([0.8, 0, 0]), -WALL),
+    )
     return task.compute(P.model, P.data)
 
 
 TASKS: dict[str, Callable[[PinocchioModel, ModelTerms], Terms]] = {
-    "posture": _posture, "com": _com, "body_point": _body_point, "vector_orientation": _vector_orientation,
-    "surface_position": _surface_position, "relative_distance": _relative_distance,
+    "posture": _posture,
+    "com": _com,
+    "body_point": _body_point,
+    "vector_orientation": _vector_orientation,
+    "surface_position": _surface_position,
+    "relative_distance": _relative_distance,
 }
 
 

@@ -51,7 +51,9 @@ def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
     pin.updateFramePlacements(P.model, P.data)
     kin = contact_kinematics(P, v, point)
     # velocity = J v, and J against finite differences of the point position along v
-    fd_velocity = (_point_position(P, pin.integrate(P.model, q, v * EPS), local) - _point_position(P, q, local)) / EPS
+    fd_velocity = (
+        _point_position(P, pin.integrate(P.model, q, v * EPS), local) - _point_position(P, q, local)
+    ) / EPS
     np.testing.assert_allclose(kin.jacobian @ v, fd_velocity, atol=1e-4)
     np.testing.assert_allclose(kin.velocity, kin.jacobian @ v, atol=1e-9)
     # drift = d/dt (J) v: finite difference of J(q + v dt) v
@@ -75,9 +77,15 @@ def test_friction_generators_are_unit_and_inside_the_cone() -> None:
 def test_points_of_one_body_match_one_at_a_time(P: PinocchioModel) -> None:
     q, v = _state(P, 3)
     first = _point(P, q)
-    second = ContactSet.of_points(first.bodies, first.positions + np.array([0.05, 0.02, 0.0]), first.normals, first.generators)
-    both_points = ContactSet.of_points(first.bodies * 2, np.vstack([first.positions, second.positions]),
-                                       np.vstack([first.normals, second.normals]), np.concatenate([first.generators, second.generators]))
+    second = ContactSet.of_points(
+        first.bodies, first.positions + np.array([0.05, 0.02, 0.0]), first.normals, first.generators
+    )
+    both_points = ContactSet.of_points(
+        first.bodies * 2,
+        np.vstack([first.positions, second.positions]),
+        np.vstack([first.normals, second.normals]),
+        np.concatenate([first.generators, second.generators]),
+    )
     pin.computeJointJacobians(P.model, P.data, q)
     pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
     pin.updateFramePlacements(P.model, P.data)

@@ -15,10 +15,10 @@ import numpy as np
 import pandas as pd
 
 from fallbench.dynamics.fall_direction import fall_class, horizontal_unit
-from fallbench.sim.recorder import Recording
 from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
 from fallbench.sim.events import METHODS
 from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
+from fallbench.sim.recorder import Recording
 from fallbench.sim.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
@@ -26,7 +26,10 @@ IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integ
 FELL_HEIGHT_FRACTION = 0.6  # base below this fraction of its standing height = fallen
 SMOOTHING_WINDOW = 0.005  # s, moving average for the *_5ms IMU peaks
 LANDING_WINDOW = 0.15  # s after the first impact: the landing that 002 Fig. 6 shows, before any later fall
-SAFE_FIRST_GROUPS = {"hands", "feet"}  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
+SAFE_FIRST_GROUPS = {
+    "hands",
+    "feet",
+}  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
 BODY_WEIGHT_GROUPS = ("total", "head", "torso")  # peak forces also given in body weights
 REPLAY_RATE = 100.0  # Hz at which the full qpos is kept in the time series, for rendering
 
@@ -60,9 +63,17 @@ def landing_mask(time: np.ndarray, impact: float | None, length: float = LANDING
     return (time >= impact - 1e-9) & (time <= impact + length + 1e-9)
 
 
-def landing_metrics(time: np.ndarray, acc: np.ndarray, demand: np.ndarray, limit: np.ndarray, switch_time: np.ndarray,
-                    failure_times: list[float], impact: float | None, takeover: float | None,
-                    length: float = LANDING_WINDOW) -> dict[str, float]:
+def landing_metrics(
+    time: np.ndarray,
+    acc: np.ndarray,
+    demand: np.ndarray,
+    limit: np.ndarray,
+    switch_time: np.ndarray,
+    failure_times: list[float],
+    impact: float | None,
+    takeover: float | None,
+    length: float = LANDING_WINDOW,
+) -> dict[str, float]:
     """The landing window's IMU peaks (m/s^2), PD demand / limit of the joints already under the gain
     policy (switch_time <= t), QP failures, and the delay from first contact to takeover (s)."""
     window = landing_mask(time, impact, length)
@@ -72,7 +83,9 @@ def landing_metrics(time: np.ndarray, acc: np.ndarray, demand: np.ndarray, limit
     return {
         "imu_peak_z_landing": _peak(acc[window, 2]),
         "imu_peak_norm_landing": _peak(np.linalg.norm(acc[window], axis=1)),
-        "torque_demand_ratio_landing": float(ratio[under_policy].max()) if under_policy.any() else float("nan"),
+        "torque_demand_ratio_landing": float(ratio[under_policy].max())
+        if under_policy.any()
+        else float("nan"),
         "qp_failures_landing": int(np.count_nonzero(failures)),
         "takeover_delay": float("nan") if impact is None or takeover is None else takeover - impact,
     }
@@ -135,7 +148,10 @@ def fall_lead_times(rec: Recording, impact: float | None) -> dict[str, float]:
     """When each fall detector fired (s, NaN if it did not before the first impact), and the lead
     time (s) from the declared detection, and from each detector, to the first impact."""
     row = {}
-    lead = (lambda fired: float("nan") if impact is None or fired is None else impact - fired)
+
+    def lead(fired: float | None) -> float:
+        return float("nan") if impact is None or fired is None else impact - fired
+
     row["fall_lead_time"] = lead(rec.fall_time)
     for method in METHODS:
         fired = rec.fall_times.get(method)
@@ -147,16 +163,31 @@ def fall_lead_times(rec: Recording, impact: float | None) -> dict[str, float]:
 def impact_metrics(rec: Recording) -> dict[str, object]:
     """Order of the body groups' first impacts, and the arms and singular joints at the first."""
     events = rec.impact_events
-    row: dict[str, object] = {"impact_events": json.dumps([
-        {"t": round(e.t, 4), "group": e.group, "bodies": e.bodies, "elbow_rad": {k: round(v, 4) for k, v in e.elbow_angles.items()},
-         "singular": e.singular} for e in events])}
+    row: dict[str, object] = {
+        "impact_events": json.dumps(
+            [
+                {
+                    "t": round(e.t, 4),
+                    "group": e.group,
+                    "bodies": e.bodies,
+                    "elbow_rad": {k: round(v, 4) for k, v in e.elbow_angles.items()},
+                    "singular": e.singular,
+                }
+                for e in events
+            ]
+        )
+    }
     row["impact_order"] = ">".join(e.group for e in events)
     first = [e for e in events if events and e.t == events[0].t]
     row["first_impact_group"] = "+".join(e.group for e in first)
     row["first_impact_safe"] = bool(first) and {e.group for e in first} <= SAFE_FIRST_GROUPS
-    row["time_to_first_impact"] = float(events[0].t - rec.fall_time) if events and rec.fall_time is not None else float("nan")
+    row["time_to_first_impact"] = (
+        float(events[0].t - rec.fall_time) if events and rec.fall_time is not None else float("nan")
+    )
     for side in ("left", "right"):
-        row[f"elbow_angle_first_impact_{side}"] = float(first[0].elbow_angles.get(side, np.nan)) if first else float("nan")
+        row[f"elbow_angle_first_impact_{side}"] = (
+            float(first[0].elbow_angles.get(side, np.nan)) if first else float("nan")
+        )
     singular = sorted({j for e in first for j in e.singular})
     row["singular_joints_first_impact"] = len(singular)
     row["singular_joints_first_impact_names"] = ",".join(singular)
@@ -181,12 +212,22 @@ def damage_metrics(rec: Recording, forces: dict[str, np.ndarray]) -> dict[str, f
     row: dict[str, float] = {}
     for group in BODY_WEIGHT_GROUPS:
         name = "contact_force_peak" + ("" if group == "total" else f"_{group}")
-        row[f"{name}_bw"] = float(forces[group].max()) / weight if group in forces and len(forces[group]) else float("nan")
+        row[f"{name}_bw"] = (
+            float(forces[group].max()) / weight if group in forces and len(forces[group]) else float("nan")
+        )
     for chain, pattern in world.robot.torque_chains.items():
         joints = [j for j, name in enumerate(world.joint_names) if re.fullmatch(pattern, name)]
-        row[f"torque_peak_{chain}"] = float(np.abs(rec.actuator_force[:, joints]).max()) if joints and rec.steps else float("nan")
-    touched = {b for b, c in zip(world.contact_bodies, world.contact_found_columns) if (rec.sensordata[:, c] > 0).any()}
-    row["vulnerable_hits"] = sum(bool(touched & set(bodies)) for bodies in world.robot.vulnerable_parts.values())
+        row[f"torque_peak_{chain}"] = (
+            float(np.abs(rec.actuator_force[:, joints]).max()) if joints and rec.steps else float("nan")
+        )
+    touched = {
+        b
+        for b, c in zip(world.contact_bodies, world.contact_found_columns)
+        if (rec.sensordata[:, c] > 0).any()
+    }
+    row["vulnerable_hits"] = sum(
+        bool(touched & set(bodies)) for bodies in world.robot.vulnerable_parts.values()
+    )
     return row
 
 
@@ -216,8 +257,18 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["knee_limit_margin"] = float(margins[:, knees].min())
     row["joint_limit_hits"] = int(np.count_nonzero((margins < -LIMIT_HIT_TOLERANCE).any(axis=0)))
     row.update(torque_metrics(rec.actuator_force, demand, world.torque_limit, dt))
-    row.update(landing_metrics(rec.time, world.sensor(rec.sensordata, "imu_acc"), demand, world.torque_limit,
-                               rec.switch_time, rec.policy_failure_times, impact, rec.impact_time))
+    row.update(
+        landing_metrics(
+            rec.time,
+            world.sensor(rec.sensordata, "imu_acc"),
+            demand,
+            world.torque_limit,
+            rec.switch_time,
+            rec.policy_failure_times,
+            impact,
+            rec.impact_time,
+        )
+    )
     row["contact_force_peak"] = float(forces["total"].max())
     for group in world.contact_groups:
         row[f"contact_force_peak_{group}"] = float(forces[group].max())
@@ -237,15 +288,28 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["first_contact_bodies"] = ",".join(rec.impact_bodies)
     row["final_base_height"] = float(base_height[-1])
     row["fell"] = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)
-    obstacle_force = [np.linalg.norm(world.sensor(rec.sensordata, n)[:, 1:4], axis=1) for n in world.obstacle_sensors]
+    obstacle_force = [
+        np.linalg.norm(world.sensor(rec.sensordata, n)[:, 1:4], axis=1) for n in world.obstacle_sensors
+    ]
     row["obstacle_contacts"] = int(sum(bool((f > 0).any()) for f in obstacle_force))
     row["obstacle_force_peak"] = float(max((f.max() for f in obstacle_force), default=0.0))
     row["controller_ms_median"] = float(np.median(rec.controller_ms))
     row.update(impact_metrics(rec))
-    row.update({"qp_solve_ms_median": float("nan"), "qp_solve_ms_p99": float("nan"), "qp_failures": 0,
-                "preimpact_qp_ms_median": float("nan"), "preimpact_qp_ms_p99": float("nan"), "preimpact_qp_solve_ms_median": float("nan"),
-                "preimpact_qp_solve_ms_p99": float("nan"), "preimpact_qp_failures": 0,
-                "preimpact_qp_steps": 0, "fall_class_at_detection": "", "fall_class_before_impact": ""})
+    row.update(
+        {
+            "qp_solve_ms_median": float("nan"),
+            "qp_solve_ms_p99": float("nan"),
+            "qp_failures": 0,
+            "preimpact_qp_ms_median": float("nan"),
+            "preimpact_qp_ms_p99": float("nan"),
+            "preimpact_qp_solve_ms_median": float("nan"),
+            "preimpact_qp_solve_ms_p99": float("nan"),
+            "preimpact_qp_failures": 0,
+            "preimpact_qp_steps": 0,
+            "fall_class_at_detection": "",
+            "fall_class_before_impact": "",
+        }
+    )
     row.update(rec.policy_stats)
     if rec.strategy is not None:
         row.update(rec.strategy.metrics(rec))
@@ -253,7 +317,9 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
         origin = row.get("control_trigger_time", rec.fall_time)
         row.update(obstacle_metrics(rec, origin if origin == origin else rec.fall_time))
         if "predicted_fall_direction_deg" in row:
-            row["fall_direction_error_deg"] = direction_error_deg(row["predicted_fall_direction_deg"], row["actual_fall_direction_deg"])
+            row["fall_direction_error_deg"] = direction_error_deg(
+                row["predicted_fall_direction_deg"], row["actual_fall_direction_deg"]
+            )
     row["sim_steps"] = int(rec.steps)
     row["sim_time"] = float(rec.steps * dt)
     return row
@@ -263,7 +329,12 @@ def timeseries(rec: Recording) -> pd.DataFrame:
     """The signals the paper figures need, at the physics rate, float32."""
     world = rec.world
     acc = world.sensor(rec.sensordata, "imu_acc")
-    columns: dict[str, np.ndarray] = {"t": rec.time, "imu_acc_x": acc[:, 0], "imu_acc_y": acc[:, 1], "imu_acc_z": acc[:, 2]}
+    columns: dict[str, np.ndarray] = {
+        "t": rec.time,
+        "imu_acc_x": acc[:, 0],
+        "imu_acc_y": acc[:, 1],
+        "imu_acc_z": acc[:, 2],
+    }
     for axis, i in zip("xyz", range(3)):
         columns[f"base_{axis}"] = rec.qpos[:, i]
     for joint in world.robot.timeseries_joints:

@@ -52,13 +52,30 @@ class QPBuilder:
         slowing the solver down."""
         n = len(self.scale)
         rows, values = np.zeros((0, n)), np.zeros(0)  # when there are none
-        A, b = _stacked([a for a, _ in self.equalities], rows), _stacked([b for _, b in self.equalities], values)
+        A, b = (
+            _stacked([a for a, _ in self.equalities], rows),
+            _stacked([b for _, b in self.equalities], values),
+        )
         C = _stacked([c for c, _, _ in self.inequalities], rows)
-        l, u = _stacked([lo for _, lo, _ in self.inequalities], values), _stacked([up for _, _, up in self.inequalities], values)
+        l, u = (
+            _stacked([lo for _, lo, _ in self.inequalities], values),
+            _stacked([up for _, _, up in self.inequalities], values),
+        )
         acceleration = self.acceleration
-        H, g, A, C, l_box, u_box, scale = scaled_problem(acceleration.M, acceleration.m, acceleration.leading,
-                                                         *task_metric(self.tasks, self.v), self.regularisation, A, C,
-                                                         self.lower, self.upper, self.scale, float(ridge), equilibrate)
+        H, g, A, C, l_box, u_box, scale = scaled_problem(
+            acceleration.M,
+            acceleration.m,
+            acceleration.leading,
+            *task_metric(self.tasks, self.v),
+            self.regularisation,
+            A,
+            C,
+            self.lower,
+            self.upper,
+            self.scale,
+            float(ridge),
+            equilibrate,
+        )
         return ScaledQP(H=H, g=g, A=A, b=b, C=C, l=l, u=u, l_box=l_box, u_box=u_box, scale=scale)
 
 

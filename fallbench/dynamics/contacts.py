@@ -27,16 +27,26 @@ class ContactSet:
     normals: np.ndarray  # (n, 3) unit, world, from the environment into the robot
     generators: np.ndarray  # (n, 3, 4) unit friction-cone edges: point i's force = generators[i] @ lambda_i
     index: np.ndarray  # (n,) each contact's index in MjData.contact (-1: not from the simulator)
-    sign: np.ndarray  # (n,) +1 when the robot is MuJoCo's geom2 (the contact frame's normal points into it), else -1
+    sign: (
+        np.ndarray
+    )  # (n,) +1 when the robot is MuJoCo's geom2 (the contact frame's normal points into it), else -1
 
     def __len__(self) -> int:
         return len(self.bodies)
 
     @classmethod
-    def of_points(cls, bodies: list[str], positions: np.ndarray, normals: np.ndarray, generators: np.ndarray) -> ContactSet:
+    def of_points(
+        cls, bodies: list[str], positions: np.ndarray, normals: np.ndarray, generators: np.ndarray
+    ) -> ContactSet:
         """Points not from the simulator (index -1)."""
-        return cls(list(bodies), np.asarray(positions, dtype=float).reshape(-1, 3), np.asarray(normals, dtype=float).reshape(-1, 3),
-                   np.asarray(generators, dtype=float).reshape(-1, 3, 4), np.full(len(bodies), -1), np.ones(len(bodies)))
+        return cls(
+            list(bodies),
+            np.asarray(positions, dtype=float).reshape(-1, 3),
+            np.asarray(normals, dtype=float).reshape(-1, 3),
+            np.asarray(generators, dtype=float).reshape(-1, 3, 4),
+            np.full(len(bodies), -1),
+            np.ones(len(bodies)),
+        )
 
 
 NO_CONTACTS = ContactSet.of_points([], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3, 4)))
@@ -57,7 +67,9 @@ class ContactKinematics:
 _FIRST, _SECOND = np.array([1.0, -1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0, -1.0])  # edges: +-t1, then +-t2
 
 
-def friction_generators(normal: np.ndarray, tangent1: np.ndarray, tangent2: np.ndarray, mu: float) -> np.ndarray:
+def friction_generators(
+    normal: np.ndarray, tangent1: np.ndarray, tangent2: np.ndarray, mu: float
+) -> np.ndarray:
     """(3, 4) unit edges n + mu t1, n - mu t1, n + mu t2, n - mu t2 of the linearized cone about `normal`;
     with (k, 3) arguments, (k, 3, 4). (n, t1, t2) orthonormal, as MuJoCo's contact frame: every edge's
     length is then sqrt(1 + mu^2)."""
@@ -79,7 +91,9 @@ def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: f
     generators = friction_generators(normals, frames[:, 1], frames[:, 2], friction)
     robot_bodies = bodies[index].sum(axis=1).tolist()  # the other body is the world's, id 0
     names = {body: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) for body in set(robot_bodies)}
-    return ContactSet([names[body] for body in robot_bodies], contacts.pos[index], normals, generators, index, signs)
+    return ContactSet(
+        [names[body] for body in robot_bodies], contacts.pos[index], normals, generators, index, signs
+    )
 
 
 def contact_kinematics(P: PinocchioModel, v: np.ndarray, contacts: ContactSet) -> ContactKinematics:
@@ -88,15 +102,27 @@ def contact_kinematics(P: PinocchioModel, v: np.ndarray, contacts: ContactSet) -
     model, data, n = P.model, P.data, len(contacts)
     if not n:
         empty = np.zeros(0)
-        return ContactKinematics(np.zeros((0, model.nv)), empty, empty, np.zeros((0, 3)), np.zeros(0, dtype=int), np.zeros((0, model.nv)), empty,
-                                 np.zeros((model.nv, 0)))
+        return ContactKinematics(
+            np.zeros((0, model.nv)),
+            empty,
+            empty,
+            np.zeros((0, 3)),
+            np.zeros(0, dtype=int),
+            np.zeros((0, model.nv)),
+            empty,
+            np.zeros((model.nv, 0)),
+        )
     bodies = list(dict.fromkeys(contacts.bodies))  # first-seen order
     frames = [P.frame_id(body) for body in bodies]
     body_of = np.array([bodies.index(body) for body in contacts.bodies])
     origins = np.array([data.oMf[frame].translation for frame in frames])
-    jacobian, drift = bodies_points_kinematics(model, data, frames, body_of, contacts.positions - origins[body_of])
+    jacobian, drift = bodies_points_kinematics(
+        model, data, frames, body_of, contacts.positions - origins[body_of]
+    )
     normals = contacts.normals
     normal_jacobian, normal_drift, velocity = kernels.normal_motion(jacobian, drift, normals, v)
     jacobian = jacobian.reshape(3 * n, model.nv)
     forces = kernels.force_map(jacobian, contacts.generators)
-    return ContactKinematics(jacobian, drift.reshape(3 * n), velocity, normals, body_of, normal_jacobian, normal_drift, forces)
+    return ContactKinematics(
+        jacobian, drift.reshape(3 * n), velocity, normals, body_of, normal_jacobian, normal_drift, forces
+    )

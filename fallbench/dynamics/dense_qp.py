@@ -35,8 +35,10 @@ def _load_plain_proxsuite() -> types.ModuleType:
     import proxsuite
 
     if proxsuite.proxqp.__name__ != "proxsuite.proxsuite_pywrap.proxqp":
-        raise ImportError(f"proxsuite was imported before fallbench.dynamics.dense_qp and loaded {proxsuite.proxqp.__name__}, "
-                          "whose results depend on memory placement; import fallbench first")
+        raise ImportError(
+            f"proxsuite was imported before fallbench.dynamics.dense_qp and loaded {proxsuite.proxqp.__name__}, "
+            "whose results depend on memory placement; import fallbench first"
+        )
     return proxsuite
 
 
@@ -72,8 +74,14 @@ class ProxSuiteQP:
     previous solution (fewer iterations on a sequence of similar problems); otherwise from the
     equality-constrained guess."""
 
-    def __init__(self, eps_abs: float, max_iter: int, max_iter_in: int = 1500, warm_start: bool = False) -> None:
-        self.eps_abs, self.max_iter, self.max_iter_in = eps_abs, max_iter, max_iter_in  # 1500: ProxSuite's default
+    def __init__(
+        self, eps_abs: float, max_iter: int, max_iter_in: int = 1500, warm_start: bool = False
+    ) -> None:
+        self.eps_abs, self.max_iter, self.max_iter_in = (
+            eps_abs,
+            max_iter,
+            max_iter_in,
+        )  # 1500: ProxSuite's default
         self.warm_start = warm_start
         self.solvers: dict[tuple[int, int, int], proxsuite.proxqp.dense.QP] = {}
 
@@ -83,12 +91,26 @@ class ProxSuiteQP:
         solver.settings.max_iter = self.max_iter
         solver.settings.max_iter_in = self.max_iter_in
         guess = proxsuite.proxqp.InitialGuess
-        solver.settings.initial_guess = guess.WARM_START_WITH_PREVIOUS_RESULT if self.warm_start else guess.EQUALITY_CONSTRAINED_INITIAL_GUESS
+        solver.settings.initial_guess = (
+            guess.WARM_START_WITH_PREVIOUS_RESULT
+            if self.warm_start
+            else guess.EQUALITY_CONSTRAINED_INITIAL_GUESS
+        )
         solver.settings.verbose = False
         return solver
 
     def solve(self, problem: ScaledQP) -> tuple[str, bool, int, np.ndarray]:
-        args = (problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u, problem.l_box, problem.u_box)
+        args = (
+            problem.H,
+            problem.g,
+            problem.A,
+            problem.b,
+            problem.C,
+            problem.l,
+            problem.u,
+            problem.l_box,
+            problem.u_box,
+        )
         dims = (problem.H.shape[0], problem.A.shape[0], problem.C.shape[0])
         solver = self.solvers.get(dims)
         if solver is None:
@@ -106,8 +128,17 @@ class ProxSuiteQP:
 
 DAQP_INFINITY = 1e30  # DAQP's own infinity: bounds at or beyond it are absent
 DAQP_EQUALITY = 5  # sense flags ACTIVE | IMMUTABLE: the row is an equality
-DAQP_STATUS = {1: "SOLVED", 2: "SOLVED", -1: "PRIMAL_INFEASIBLE", -2: "CYCLING", -3: "DUAL_INFEASIBLE",
-               -4: "MAX_ITER_REACHED", -5: "NONCONVEX", -6: "PRIMAL_INFEASIBLE", -7: "TIME_LIMIT"}  # -6: inconsistent equalities
+DAQP_STATUS = {
+    1: "SOLVED",
+    2: "SOLVED",
+    -1: "PRIMAL_INFEASIBLE",
+    -2: "CYCLING",
+    -3: "DUAL_INFEASIBLE",
+    -4: "MAX_ITER_REACHED",
+    -5: "NONCONVEX",
+    -6: "PRIMAL_INFEASIBLE",
+    -7: "TIME_LIMIT",
+}  # -6: inconsistent equalities
 
 
 class DaqpQP:
@@ -125,13 +156,23 @@ class DaqpQP:
         lower = np.maximum(np.concatenate([problem.l_box, problem.b, problem.l]), -DAQP_INFINITY)
         sense = np.zeros(len(upper), dtype=np.int32)
         sense[n : n + n_eq] = DAQP_EQUALITY
-        x, _, exitflag, info = daqp.solve(problem.H, problem.g, np.vstack([problem.A, problem.C]), upper, lower, sense,
-                                          primal_tol=self.primal_tol, iter_limit=self.iter_limit)
+        x, _, exitflag, info = daqp.solve(
+            problem.H,
+            problem.g,
+            np.vstack([problem.A, problem.C]),
+            upper,
+            lower,
+            sense,
+            primal_tol=self.primal_tol,
+            iter_limit=self.iter_limit,
+        )
         status = DAQP_STATUS.get(exitflag, f"DAQP_EXIT_{exitflag}")
         return status, exitflag in (1, 2), int(info["iterations"]), problem.scale * np.asarray(x)
 
 
-def make_solver(name: str, eps_abs: float, max_iter: int, max_iter_in: int, warm_start: bool = False) -> QPSolver:
+def make_solver(
+    name: str, eps_abs: float, max_iter: int, max_iter_in: int, warm_start: bool = False
+) -> QPSolver:
     """The named solver (QP_SOLVERS); the iteration caps are ProxSuite's."""
     if name == "proxsuite":
         return ProxSuiteQP(eps_abs, max_iter, max_iter_in, warm_start)

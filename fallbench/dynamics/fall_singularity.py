@@ -27,8 +27,9 @@ class Impact:
     force: np.ndarray  # N (or any positive multiple), world, applied on the robot
 
 
-def singular_joints(model: pin.Model, data: pin.Data, q: np.ndarray, impacts: list[Impact],
-                    joints: list[str]) -> list[str]:
+def singular_joints(
+    model: pin.Model, data: pin.Data, q: np.ndarray, impacts: list[Impact], joints: list[str]
+) -> list[str]:
     """Names among `joints` (revolute, on the impacting chains) that the impacts leave unloaded."""
     pin.forwardKinematics(model, data, q)
     pin.updateFramePlacements(model, data)
@@ -44,9 +45,15 @@ def singular_joints(model: pin.Model, data: pin.Data, q: np.ndarray, impacts: li
     for name in joints:
         joint = model.getJointId(name)
         origin = data.oMi[joint].translation
-        on_chain = [i for i in impacts if joint in model.supports[model.frames[model.getFrameId(i.body)].parentJoint]]
+        on_chain = [
+            i for i in impacts if joint in model.supports[model.frames[model.getFrameId(i.body)].parentJoint]
+        ]
         levers = [float(np.linalg.norm(i.point - origin)) for i in on_chain]
         reach = sum(float(np.linalg.norm(i.force)) * lever for i, lever in zip(on_chain, levers))
-        if levers and max(levers) >= MIN_LEVER and abs(torque[model.joints[joint].idx_v]) < SINGULAR_SINE * reach:
+        if (
+            levers
+            and max(levers) >= MIN_LEVER
+            and abs(torque[model.joints[joint].idx_v]) < SINGULAR_SINE * reach
+        ):
             singular.append(name)
     return singular

@@ -11,7 +11,8 @@ plain Python functions until their first call).
 from __future__ import annotations
 
 import functools
-from typing import Any, Callable, TypeVar
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -45,8 +46,9 @@ def symmetric(upper: np.ndarray) -> np.ndarray:
 
 
 @compiled
-def points_kinematics(J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarray, body_of: np.ndarray,
-                      offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def points_kinematics(
+    J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarray, body_of: np.ndarray, offsets: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians (m, 3, nv) and drifts J_dot q_dot (m, 3) of m points fixed in bodies, from each body's
     world-aligned frame Jacobian J6 (bodies, 6, nv), angular velocity omega (bodies, 3) and classical
     acceleration at q_ddot = 0 (bodies, 6); point i is on body body_of[i] at world offset offsets[i] (m)
@@ -71,8 +73,9 @@ def points_kinematics(J6: np.ndarray, omega: np.ndarray, acceleration: np.ndarra
 
 
 @compiled
-def normal_motion(jacobians: np.ndarray, drifts: np.ndarray, normals: np.ndarray,
-                  v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def normal_motion(
+    jacobians: np.ndarray, drifts: np.ndarray, normals: np.ndarray, v: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Of m points with Jacobians (m, 3, nv), drifts (m, 3) and unit normals (m, 3): the normal rows
     n'J (m, nv), normal drifts n' J_dot q_dot (m,) and the point velocities J v (3 m,)."""
     count, nv = len(normals), len(v)
@@ -102,7 +105,9 @@ def force_map(jacobian: np.ndarray, generators: np.ndarray) -> np.ndarray:
 
 
 @compiled
-def independent_rows(jacobian: np.ndarray, drift: np.ndarray, body_of: np.ndarray, tolerance: float) -> np.ndarray:
+def independent_rows(
+    jacobian: np.ndarray, drift: np.ndarray, body_of: np.ndarray, tolerance: float
+) -> np.ndarray:
     """Rows spanning the same constraints as the rows (jacobian | drift) (k, nv + 1), independent within each body.
 
     Row i is (n'J | n' J_dot q_dot) of a contact point on body body_of[i]. A body's rows are combined
@@ -126,9 +131,21 @@ def independent_rows(jacobian: np.ndarray, drift: np.ndarray, body_of: np.ndarra
 
 
 @compiled
-def scaled_problem(M: np.ndarray, m: np.ndarray, leading: bool, W: np.ndarray, r: np.ndarray, regularisation: np.ndarray,
-                   A: np.ndarray, C: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: np.ndarray, ridge: float,
-                   equilibrate: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def scaled_problem(
+    M: np.ndarray,
+    m: np.ndarray,
+    leading: bool,
+    W: np.ndarray,
+    r: np.ndarray,
+    regularisation: np.ndarray,
+    A: np.ndarray,
+    C: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    scale: np.ndarray,
+    ridge: float,
+    equilibrate: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The cost q_ddot' W q_ddot + 2 r' q_ddot with q_ddot = M y + m (M = [I 0], m = 0 if `leading`),
     plus regularisation y_j^2, in x with y = scale * x, the rows A y, C y and bounds of y likewise;
     `equilibrate`: scale chosen so that H's diagonal is one (where it is positive); then ridge |x|^2.
@@ -154,8 +171,18 @@ def scaled_problem(M: np.ndarray, m: np.ndarray, leading: bool, W: np.ndarray, r
 
 
 @compiled
-def add_task(W: np.ndarray, r: np.ndarray, jacobian: np.ndarray, rows: np.ndarray, weight: float, drift: np.ndarray,
-             error: np.ndarray, kp: float, kv: float, v: np.ndarray) -> None:
+def add_task(
+    W: np.ndarray,
+    r: np.ndarray,
+    jacobian: np.ndarray,
+    rows: np.ndarray,
+    weight: float,
+    drift: np.ndarray,
+    error: np.ndarray,
+    kp: float,
+    kv: float,
+    v: np.ndarray,
+) -> None:
     """W += weight J'J, r += weight J'(drift + kp error + kv J v), in place; J is `jacobian` (k, nv),
     or, when `rows` is not empty, the selection of those (distinct) velocity entries (J'J diagonal)."""
     if len(rows):

@@ -33,7 +33,9 @@ class PinocchioModel:
     mj_to_pin_q: np.ndarray  # for each Pinocchio joint q index (after the base): MuJoCo qpos index
     mj_to_pin_v: np.ndarray  # likewise for velocities
     actuated_v: np.ndarray  # Pinocchio v index of each MuJoCo actuator
-    frame_ids: dict[str, int] = field(default_factory=dict)  # name -> id, as getFrameId (first frame of a name), filled on use
+    frame_ids: dict[str, int] = field(
+        default_factory=dict
+    )  # name -> id, as getFrameId (first frame of a name), filled on use
 
     def frame_id(self, name: str) -> int:
         """model.getFrameId(name), cached (the lookup is a search over all frames' names)."""

@@ -29,7 +29,9 @@ class SetPoint:
     drift: np.ndarray  # (k,) J_dot q_dot
     kp: float  # 1/s^2
     kv: float  # 1/s
-    rows: np.ndarray | None = None  # a selection Jacobian as the (distinct) velocity indices it picks (faster)
+    rows: np.ndarray | None = (
+        None  # a selection Jacobian as the (distinct) velocity indices it picks (faster)
+    )
 
 
 def task_metric(tasks: list[SetPoint], v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -38,8 +40,18 @@ def task_metric(tasks: list[SetPoint], v: np.ndarray) -> tuple[np.ndarray, np.nd
     for task in tasks:
         jacobian = NO_JACOBIAN if task.jacobian is None else np.ascontiguousarray(task.jacobian, dtype=float)
         rows = NO_ROWS if task.rows is None else task.rows
-        kernels.add_task(W, r, jacobian, rows, float(task.weight), np.asarray(task.drift, dtype=float),
-                         np.asarray(task.error, dtype=float), float(task.kp), float(task.kv), v)
+        kernels.add_task(
+            W,
+            r,
+            jacobian,
+            rows,
+            float(task.weight),
+            np.asarray(task.drift, dtype=float),
+            np.asarray(task.error, dtype=float),
+            float(task.kp),
+            float(task.kv),
+            v,
+        )
     return W, r
 
 

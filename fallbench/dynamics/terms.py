@@ -27,8 +27,14 @@ class ModelTerms:
     J_com: np.ndarray  # (3, nv)
 
 
-def model_terms(P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: ContactSet, inertia: bool = False,
-                inverse: bool = True) -> ModelTerms:
+def model_terms(
+    P: PinocchioModel,
+    q: np.ndarray,
+    v: np.ndarray,
+    points: ContactSet,
+    inertia: bool = False,
+    inverse: bool = True,
+) -> ModelTerms:
     """All terms at (q, v), the inertia matrix itself only if `inertia`, its inverse only if `inverse`; afterwards P.data holds the
     kinematics every task's `compute` needs (forwardKinematics(q, v, 0), computeJointJacobians(q),
     updateFramePlacements)."""

@@ -21,13 +21,19 @@ class GainPolicy(ABC):
 
     name: str = ""
     needs_contacts: bool = False  # whether `Observation.touching` must be filled after impact
-    static: bool = False  # True: the command depends only on q_ref, so it is asked for again only when q_ref changes
+    static: bool = (
+        False  # True: the command depends only on q_ref, so it is asked for again only when q_ref changes
+    )
 
     defaults: dict[str, Any] = {}
-    choices: dict[str, tuple[str, ...]] = {}  # the allowed values of text parameters, checked when scenarios load
+    choices: dict[
+        str, tuple[str, ...]
+    ] = {}  # the allowed values of text parameters, checked when scenarios load
 
-    def __init__(self, world: "World", scenario: "Scenario") -> None:
-        self.params = resolved_params("policy", self.name, self.defaults, scenario.policy_params.get(self.name, {}))
+    def __init__(self, world: World, scenario: Scenario) -> None:
+        self.params = resolved_params(
+            "policy", self.name, self.defaults, scenario.policy_params.get(self.name, {})
+        )
         self.world = world
         self.scenario = scenario
         self.default_kp = world.default_kp

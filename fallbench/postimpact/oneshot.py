@@ -12,4 +12,6 @@ class OneshotPolicy(FixedGainPolicy):
     defaults = {"kp_factor": 1e-3, "kd_factor": 1e-2}
 
     def impact_gains(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.default_kp * float(self.params["kp_factor"]), self.default_kd * float(self.params["kd_factor"])
+        return self.default_kp * float(self.params["kp_factor"]), self.default_kd * float(
+            self.params["kd_factor"]
+        )

@@ -26,6 +26,8 @@ class StiffPolicy(FixedGainPolicy):
         return self.default_kp, self.default_kd  # already scaled by gain_scale (the episode's world)
 
 
-def gain_scale(scenario: "Scenario") -> float:
+def gain_scale(scenario: Scenario) -> float:
     """`policy_params.stiff.gain_scale` (default 1): factor on the default K and B of every policy."""
-    return float(scenario.policy_params.get(StiffPolicy.name, {}).get("gain_scale", StiffPolicy.defaults["gain_scale"]))
+    return float(
+        scenario.policy_params.get(StiffPolicy.name, {}).get("gain_scale", StiffPolicy.defaults["gain_scale"])
+    )

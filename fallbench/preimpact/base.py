@@ -30,13 +30,17 @@ class Strategy(ABC):
 
     name: str = ""
     defaults: dict[str, Any] = {}  # parameters under `policy_params.<name>`, with their default values
-    choices: dict[str, tuple[str, ...]] = {}  # the allowed values of text parameters, checked when scenarios load
+    choices: dict[
+        str, tuple[str, ...]
+    ] = {}  # the allowed values of text parameters, checked when scenarios load
     # True: each motor switches to the gain policy when its own chain touches down (002 Sec. V);
     # False: every motor switches at the first impact.
     per_chain_switching: bool = False
 
-    def __init__(self, world: "World", scenario: "Scenario") -> None:
-        self.params = resolved_params("strategy", self.name, self.defaults, scenario.policy_params.get(self.name, {}))
+    def __init__(self, world: World, scenario: Scenario) -> None:
+        self.params = resolved_params(
+            "strategy", self.name, self.defaults, scenario.policy_params.get(self.name, {})
+        )
         self.world, self.scenario = world, scenario
 
     @abstractmethod
@@ -59,6 +63,6 @@ class Strategy(ABC):
         """Per-episode controller figures (timings, failures) stored with the metrics."""
         return {}
 
-    def metrics(self, recording: "Recording") -> dict[str, Any]:
+    def metrics(self, recording: Recording) -> dict[str, Any]:
         """Per-episode outcome figures computed after the run from its recording."""
         return {}

@@ -9,17 +9,17 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
-from fallbench.results import store
 from fallbench.report import pages, ranking
-from fallbench.report.filmstrips import render_filmstrips
-from fallbench.report.stats import natural_sorted
 from fallbench.report.claims import claims_table, verdict_matrix
 from fallbench.report.direction import direction_report
-from fallbench.report.preimpact import preimpact_report
 from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torque_figure
-from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
-from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
+from fallbench.report.filmstrips import render_filmstrips
 from fallbench.report.grouping import with_robot
+from fallbench.report.preimpact import preimpact_report
+from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
+from fallbench.report.stats import natural_sorted
+from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
+from fallbench.results import store
 
 
 def _leg(robot: str) -> tuple[dict[str, str], tuple[float, float], dict[str, float]]:
@@ -30,7 +30,11 @@ def _leg(robot: str) -> tuple[dict[str, str], tuple[float, float], dict[str, flo
     world = build_world(Scenario(name="limits", duration=1.0, robot=robot))
     leg = world.robot.leg_pitch("right")
     low, high = world.joint_range[world.joint_names.index(leg["knee"])]
-    return leg, (float(low), float(high)), {j: float(world.torque_limit[world.joint_names.index(j)]) for j in leg.values()}
+    return (
+        leg,
+        (float(low), float(high)),
+        {j: float(world.torque_limit[world.joint_names.index(j)]) for j in leg.values()},
+    )
 
 
 def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> dict[str, list[Path]]:
@@ -38,7 +42,12 @@ def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) 
     as in 002: gain policies alone (pre-impact strategy `none`)."""
     figures: dict[str, list[Path]] = {}
     # seed 0 only: a randomised family gets one point's figures, not one per seed
-    ok = runs[(runs.status == "ok") & runs.scenario.str.contains("drop|push") & (runs.pre_impact == "none") & (runs.seed == 0)]
+    ok = runs[
+        (runs.status == "ok")
+        & runs.scenario.str.contains("drop|push")
+        & (runs.pre_impact == "none")
+        & (runs.seed == 0)
+    ]
     points = [(point, ok[ok.point == point]) for point in natural_sorted(ok.point.unique())]
     points = [(point, group) for point, group in points if group.policy.nunique() > 1]
     for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):
@@ -60,9 +69,12 @@ def _answer(runs: pd.DataFrame, robot: str) -> list[str]:
     body = []
     for family in ranking.families(runs):
         group = runs[runs.scenario == family]
-        body += [f"<h3>{pages.link(pages.family_file(robot, family), family)} "
-                 f"<small>({group.point.nunique()} points x seeds, {len(group)} runs)</small></h3>",
-                 f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>", pages.table(ranking.ranking_table(group))]
+        body += [
+            f"<h3>{pages.link(pages.family_file(robot, family), family)} "
+            f"<small>({group.point.nunique()} points x seeds, {len(group)} runs)</small></h3>",
+            f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>",
+            pages.table(ranking.ranking_table(group)),
+        ]
     return body
 
 
@@ -73,23 +85,36 @@ def _strip_images(strips: dict[str, list[Path]], out: Path, note: str) -> list[s
     return body
 
 
-def _family_page(runs: pd.DataFrame, robot: str, family: str, out: Path, figures: dict[str, list[Path]],
-                 sweep_paths: list[Path], strips: dict[str, list[Path]]) -> Path:
+def _family_page(
+    runs: pd.DataFrame,
+    robot: str,
+    family: str,
+    out: Path,
+    figures: dict[str, list[Path]],
+    sweep_paths: list[Path],
+    strips: dict[str, list[Path]],
+) -> Path:
     group = runs[runs.scenario == family]
     title = f"{robot} {family}".strip()
-    body = [f"<p>{pages.link('index.html', 'overview')}</p>", f"<h1>{html.escape(title)}</h1>",
-            f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds).</p>",
-            f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>",
-            "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
-            pages.table(ranking.ranking_table(group)),
-            "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
-            pages.table(ranking.relative_changes(group)),
-            "<h2>Medians per strategy and policy</h2>", pages.table(median_table(group).round(3), index=True)]
+    body = [
+        f"<p>{pages.link('index.html', 'overview')}</p>",
+        f"<h1>{html.escape(title)}</h1>",
+        f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds).</p>",
+        f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>",
+        "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
+        pages.table(ranking.ranking_table(group)),
+        "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
+        pages.table(ranking.relative_changes(group)),
+        "<h2>Medians per strategy and policy</h2>",
+        pages.table(median_table(group).round(3), index=True),
+    ]
     mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family}_")]
     if mine:
         body += ["<h2>Metrics against the swept values</h2>"] + [pages.image(p, out) for p in mine]
     strip_ids = set(group.run_id)
-    chosen = {c: [p for p in paths if p.stem.removeprefix("filmstrip_") in strip_ids] for c, paths in strips.items()}
+    chosen = {
+        c: [p for p in paths if p.stem.removeprefix("filmstrip_") in strip_ids] for c, paths in strips.items()
+    }
     body += _strip_images({c: paths for c, paths in chosen.items() if paths}, out, "")
     points = natural_sorted(p for p in figures if p in set(group.point))
     if points:
@@ -122,51 +147,89 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     failed = runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]]
     per_robot = ranking.robots(runs)
 
-    body = [f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
-            f"{len(failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
-            "runs of a family: its sweep points and seeds.</p>", "<h2>What hurts the robot least</h2>",
-            "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
-            "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>"]
+    body = [
+        f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
+        f"{len(failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
+        "runs of a family: its sweep points and seeds.</p>",
+        "<h2>What hurts the robot least</h2>",
+        "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
+        "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>",
+    ]
     family_pages = []
     for robot, robot_runs in per_robot.items():
         if robot:
             body.append(f"<h2>Robot {html.escape(robot)}</h2>")
         body += _answer(robot_runs, robot)
-        family_pages += [_family_page(robot_runs, robot, f, out, figures, sweep_paths, strips) for f in ranking.families(robot_runs)]
+        family_pages += [
+            _family_page(robot_runs, robot, f, out, figures, sweep_paths, strips)
+            for f in ranking.families(robot_runs)
+        ]
     body += ["<h2>Falls, rendered</h2>"] + _strip_images(strips, out, strip_note)
     body += ["<h2>Claims of the papers</h2>", pages.table(verdicts), pages.table(claims)]
     for robot, robot_runs in per_robot.items():
-        body += [f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
-                 pages.table(ranking.relative_changes(robot_runs))]
+        body += [
+            f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
+            pages.table(ranking.relative_changes(robot_runs)),
+        ]
     body.append("<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>")
     for title, frame in pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", pages.table(frame)]
-    body += [pages.image(p, out) for p in pre_paths if p.suffix == ".png" and not p.stem.startswith("reshaped_fall_")]
+    body += [
+        pages.image(p, out)
+        for p in pre_paths
+        if p.suffix == ".png" and not p.stem.startswith("reshaped_fall_")
+    ]
     if len(sensitivity):
         body += ["<h2>Sensitivity to the baseline stiffness</h2>", pages.table(sensitivity.round(3))]
         body += [pages.image(p, out) for p in sensitivity_paths if p.suffix == ".png"]
     body += ["<h2>More</h2><ul>"] + [f"<li>{pages.link(p.name, p.stem)}</li>" for p in family_pages]
-    body += [f"<li>{pages.link(p.name, p.stem)}</li>" for p in sweep_paths + pre_paths if p.suffix == ".png"
-             and not p.stem.startswith("sweep_") or p.stem == "sweep_distributions"] + ["</ul>"]
+    body += [
+        f"<li>{pages.link(p.name, p.stem)}</li>"
+        for p in sweep_paths + pre_paths
+        if p.suffix == ".png" and not p.stem.startswith("sweep_") or p.stem == "sweep_distributions"
+    ] + ["</ul>"]
     if len(failed):
         body += ["<h2>Failed runs</h2>", pages.table(failed)]
     index = pages.write(out / "index.html", "fallbench report", body)
 
-    summary = ["# fallbench report", "", f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.", "",
-               "## What hurts the robot least (median [95 % bootstrap CI] over points and seeds)", ""]
+    summary = [
+        "# fallbench report",
+        "",
+        f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.",
+        "",
+        "## What hurts the robot least (median [95 % bootstrap CI] over points and seeds)",
+        "",
+    ]
     for robot, robot_runs in per_robot.items():
         for family in ranking.families(robot_runs):
             group = robot_runs[robot_runs.scenario == family]
-            summary += [f"### {robot} {family}".replace("  ", " "), "", ranking.verdict(group), "",
-                        ranking.ranking_table(group).to_markdown(index=False), ""]
-    summary += ["## Claims", "", verdicts.to_markdown(index=False) if len(verdicts) else "", "",
-                claims.to_markdown(index=False) if len(claims) else "(no drop runs)", "",
-                "## Pre-impact strategies (none vs reshape, none vs direction)", ""]
+            summary += [
+                f"### {robot} {family}".replace("  ", " "),
+                "",
+                ranking.verdict(group),
+                "",
+                ranking.ranking_table(group).to_markdown(index=False),
+                "",
+            ]
+    summary += [
+        "## Claims",
+        "",
+        verdicts.to_markdown(index=False) if len(verdicts) else "",
+        "",
+        claims.to_markdown(index=False) if len(claims) else "(no drop runs)",
+        "",
+        "## Pre-impact strategies (none vs reshape, none vs direction)",
+        "",
+    ]
     for title, frame in pre_tables.items():
         summary += [f"### {title}", "", frame.to_markdown(index=False) if len(frame) else "(no runs)", ""]
     if len(sensitivity):
-        summary += ["## Sensitivity to the baseline stiffness (medians per gain scale)", "",
-                    sensitivity.round(3).to_markdown(index=False), ""]
+        summary += [
+            "## Sensitivity to the baseline stiffness (medians per gain scale)",
+            "",
+            sensitivity.round(3).to_markdown(index=False),
+            "",
+        ]
     summary += ["## Medians per scenario, strategy and policy", "", medians.round(3).to_markdown(), ""]
     if len(failed):
         summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
@@ -175,5 +238,12 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     summary += [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
     summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths + sensitivity_paths if p.suffix == ".png"]
     (out / "summary.md").write_text("\n".join(summary) + "\n")
-    return ([index, out / "summary.md"] + family_pages + strip_paths + [p for paths in figures.values() for p in paths]
-            + sweep_paths + pre_paths + sensitivity_paths)
+    return (
+        [index, out / "summary.md"]
+        + family_pages
+        + strip_paths
+        + [p for paths in figures.values() for p in paths]
+        + sweep_paths
+        + pre_paths
+        + sensitivity_paths
+    )

@@ -18,15 +18,24 @@ from fallbench.report.stats import bootstrap
 from fallbench.report.style import ordered
 
 STOP = 0.0  # rad: knee margin at or below this = the knee reached its mechanical stop
-LANDING_COLUMNS = ["imu_peak_z_landing", "torque_demand_ratio_landing"]  # NaN in stores written before they existed
+LANDING_COLUMNS = [
+    "imu_peak_z_landing",
+    "torque_demand_ratio_landing",
+]  # NaN in stores written before they existed
 CLAIMS = {  # key: (claim of 002 Sec. VI as the claims table words it, short label of the verdict matrix)
     "stiff_imu": ("stiff has the highest IMU acceleration (landing)", "stiff: highest IMU"),
     "stiff_knee": ("stiff stays off the knee stop", "stiff: off the stop"),
     "oneshot_knee": ("oneshot reaches the knee's mechanical stop", "oneshot: at the stop"),
     "zero_knee": ("zero reaches the knee's mechanical stop", "zero: at the stop"),
-    "adaptive_imu": ("adaptive_qp has a lower IMU acceleration than stiff (landing)", "adaptive_qp: IMU < stiff"),
+    "adaptive_imu": (
+        "adaptive_qp has a lower IMU acceleration than stiff (landing)",
+        "adaptive_qp: IMU < stiff",
+    ),
     "adaptive_knee": ("adaptive_qp stays off the knee stop", "adaptive_qp: off the stop"),
-    "adaptive_torque": ("adaptive_qp keeps torques under their limits (landing PD demand <= limit)", "adaptive_qp: demand <= limit"),
+    "adaptive_torque": (
+        "adaptive_qp keeps torques under their limits (landing PD demand <= limit)",
+        "adaptive_qp: demand <= limit",
+    ),
 }
 
 
@@ -49,47 +58,84 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
     demand_whole = by.torque_demand_ratio_max.median()
     applied = by.torque_ratio_max.max()
     point = runs.point if "point" in runs else pd.Series("all", index=runs.index)
-    per_point = {m: runs.assign(point=point).pivot_table(index="point", columns="policy", values=m, aggfunc="median", dropna=False)
-                 for m in ("imu_peak_z_landing", "knee_limit_margin", "torque_demand_ratio_landing")}
+    per_point = {
+        m: runs.assign(point=point).pivot_table(
+            index="point", columns="policy", values=m, aggfunc="median", dropna=False
+        )
+        for m in ("imu_peak_z_landing", "knee_limit_margin", "torque_demand_ratio_landing")
+    }
     imu_points, knee_points = per_point["imu_peak_z_landing"], per_point["knee_limit_margin"]
     rows = []
 
     def claim(key: str, holds: bool | None, numbers: str, points: pd.Series | None = None) -> None:
         """`points`: per drop point, whether the claim holds there (N/M)."""
         verdict = "n/a" if holds is None else ("holds" if holds else "does not hold")
-        rows.append({"scope": scope, "source": "002 Sec. VI", "claim": CLAIMS[key][0], "verdict": verdict,
-                     "points holding": "" if points is None else _count(points), "numbers": numbers})
+        rows.append(
+            {
+                "scope": scope,
+                "source": "002 Sec. VI",
+                "claim": CLAIMS[key][0],
+                "verdict": verdict,
+                "points holding": "" if points is None else _count(points),
+                "numbers": numbers,
+            }
+        )
 
     imu_numbers = f"landing {_values(imu)}; whole episode {_values(whole)} m/s^2 (median IMU z peak)"
     if {"stiff"} <= set(imu.index):
         highest = imu_points.dropna(how="all")
-        claim("stiff_imu", None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
-              imu_numbers, highest.idxmax(axis=1) == "stiff" if len(highest) else None)
-        claim("stiff_knee", bool(knee["stiff"] > STOP), f"stiff min knee margin {knee['stiff']:+.3f} rad",
-              knee_points["stiff"] > STOP)
+        claim(
+            "stiff_imu",
+            None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
+            imu_numbers,
+            highest.idxmax(axis=1) == "stiff" if len(highest) else None,
+        )
+        claim(
+            "stiff_knee",
+            bool(knee["stiff"] > STOP),
+            f"stiff min knee margin {knee['stiff']:+.3f} rad",
+            knee_points["stiff"] > STOP,
+        )
     for policy in ("oneshot", "zero"):
         if policy in knee.index:
-            claim(f"{policy}_knee", bool(knee[policy] <= STOP),
-                  f"{policy} min knee margin {knee[policy]:+.3f} rad", knee_points[policy] <= STOP)
+            claim(
+                f"{policy}_knee",
+                bool(knee[policy] <= STOP),
+                f"{policy} min knee margin {knee[policy]:+.3f} rad",
+                knee_points[policy] <= STOP,
+            )
     if "adaptive_qp" in imu.index:
         compared = imu.get("stiff", float("nan"))
         lower, difference = None, ""
         if "stiff" in imu_points:
             paired = (imu_points["adaptive_qp"] - imu_points["stiff"]).dropna()
             lower = paired < 0
-            difference = f"; adaptive_qp - stiff per point, median [95 % CI]: {bootstrap(paired).format()} m/s^2" if len(paired) else ""
-        claim("adaptive_imu",
-              None if pd.isna(imu["adaptive_qp"]) or pd.isna(compared) else bool(imu["adaptive_qp"] < compared),
-              imu_numbers + difference, lower)
-        claim("adaptive_knee", bool(knee["adaptive_qp"] > STOP),
-              f"adaptive_qp min knee margin {knee['adaptive_qp']:+.3f} rad", knee_points["adaptive_qp"] > STOP)
+            difference = (
+                f"; adaptive_qp - stiff per point, median [95 % CI]: {bootstrap(paired).format()} m/s^2"
+                if len(paired)
+                else ""
+            )
+        claim(
+            "adaptive_imu",
+            None if pd.isna(imu["adaptive_qp"]) or pd.isna(compared) else bool(imu["adaptive_qp"] < compared),
+            imu_numbers + difference,
+            lower,
+        )
+        claim(
+            "adaptive_knee",
+            bool(knee["adaptive_qp"] > STOP),
+            f"adaptive_qp min knee margin {knee['adaptive_qp']:+.3f} rad",
+            knee_points["adaptive_qp"] > STOP,
+        )
         demand_points = per_point["torque_demand_ratio_landing"]["adaptive_qp"].dropna()
-        claim("adaptive_torque",
-              None if pd.isna(demand["adaptive_qp"]) else bool(demand["adaptive_qp"] <= 1.0),
-              f"median max demand/limit {demand['adaptive_qp']:.2f} in the landing (joints under the policy), "
-              f"{demand_whole['adaptive_qp']:.2f} over the episode (all joints); "
-              f"applied torque max/limit {applied['adaptive_qp']:.2f} (clamped by the motor)",
-              demand_points <= 1.0 if len(demand_points) else None)
+        claim(
+            "adaptive_torque",
+            None if pd.isna(demand["adaptive_qp"]) else bool(demand["adaptive_qp"] <= 1.0),
+            f"median max demand/limit {demand['adaptive_qp']:.2f} in the landing (joints under the policy), "
+            f"{demand_whole['adaptive_qp']:.2f} over the episode (all joints); "
+            f"applied torque max/limit {applied['adaptive_qp']:.2f} (clamped by the motor)",
+            demand_points <= 1.0 if len(demand_points) else None,
+        )
     return rows
 
 
@@ -104,9 +150,14 @@ def _sensitivity_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
         subsets = group.groupby(settings, dropna=False) if settings else [((), group)]
         for values, subset in subsets:
             values = values if isinstance(values, tuple) else (values,)
-            setting = ", ".join(f"{c.removeprefix('param:policy_params.')}={value_label(v)}" for c, v in zip(settings, values))
-            rows += _claims_for(subset, f"{'+'.join(sorted(subset.scenario.unique()))}: gain scale {scale:g}"
-                                        + (f", {setting}" if setting else ""))
+            setting = ", ".join(
+                f"{c.removeprefix('param:policy_params.')}={value_label(v)}" for c, v in zip(settings, values)
+            )
+            rows += _claims_for(
+                subset,
+                f"{'+'.join(sorted(subset.scenario.unique()))}: gain scale {scale:g}"
+                + (f", {setting}" if setting else ""),
+            )
     return rows
 
 
@@ -130,25 +181,57 @@ def prescription_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
     scope = f"pushes ({pushes.point.nunique()} points)"
     if {"none", "reshape"} <= set(pushes.pre_impact):
         none, reshape = pushes[pushes.pre_impact == "none"], pushes[pushes.pre_impact == "reshape"]
-        for column, source, text in (("first_impact_safe", "000 Sec. III", "reshape lands first on hands or feet more often than none"),
-                                     ("first_impact_prescribed", "000 Sec. IV", "reshape lands as 000 prescribes for its fall class more often than none")):
+        for column, source, text in (
+            (
+                "first_impact_safe",
+                "000 Sec. III",
+                "reshape lands first on hands or feet more often than none",
+            ),
+            (
+                "first_impact_prescribed",
+                "000 Sec. IV",
+                "reshape lands as 000 prescribes for its fall class more often than none",
+            ),
+        ):
             if column in pushes:
                 holds = none[column].astype(float).mean() < reshape[column].astype(float).mean()
-                rows.append({"scope": scope, "source": source, "claim": text, "verdict": "holds" if holds else "does not hold",
-                             "points holding": "", "numbers": f"runs where it happens: none {_share(none, column)}, reshape {_share(reshape, column)}"})
+                rows.append(
+                    {
+                        "scope": scope,
+                        "source": source,
+                        "claim": text,
+                        "verdict": "holds" if holds else "does not hold",
+                        "points holding": "",
+                        "numbers": f"runs where it happens: none {_share(none, column)}, reshape {_share(reshape, column)}",
+                    }
+                )
         paired = _paired(pushes, "contact_force_peak_head", "reshape")
         if len(paired):
             change = paired["reshape"] - paired["none"]
-            rows.append({"scope": scope, "source": "000 Sec. IV-B", "claim": "reshape lowers the head's peak force",
-                         "verdict": "holds" if change.median() < 0 else "does not hold", "points holding": _count(change < 0),
-                         "numbers": f"paired difference reshape - none (same point and policy), median [95 % CI]: {bootstrap(change).format()} N"})
+            rows.append(
+                {
+                    "scope": scope,
+                    "source": "000 Sec. IV-B",
+                    "claim": "reshape lowers the head's peak force",
+                    "verdict": "holds" if change.median() < 0 else "does not hold",
+                    "points holding": _count(change < 0),
+                    "numbers": f"paired difference reshape - none (same point and policy), median [95 % CI]: {bootstrap(change).format()} N",
+                }
+            )
     obstacles = runs[(runs.status == "ok") & (runs.pre_impact.isin(["none", "direction"]))]
     if "obstacle_hit" in obstacles and {"none", "direction"} <= set(obstacles.pre_impact):
         paired = _paired(obstacles, "obstacle_hit", "direction").astype(float)
         holds = paired["direction"].mean() < paired["none"].mean()
-        rows.append({"scope": f"obstacle layouts ({len(paired)} paired runs)", "source": "004 Sec. V", "claim": "direction hits objects less often than none",
-                     "verdict": "holds" if holds else "does not hold", "points holding": _count(paired["direction"] < paired["none"]),
-                     "numbers": f"runs that hit an object: none {_share(paired, 'none')}, direction {_share(paired, 'direction')}"})
+        rows.append(
+            {
+                "scope": f"obstacle layouts ({len(paired)} paired runs)",
+                "source": "004 Sec. V",
+                "claim": "direction hits objects less often than none",
+                "verdict": "holds" if holds else "does not hold",
+                "points holding": _count(paired["direction"] < paired["none"]),
+                "numbers": f"runs that hit an object: none {_share(paired, 'none')}, direction {_share(paired, 'direction')}",
+            }
+        )
     return rows
 
 
@@ -169,7 +252,10 @@ def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
             if len(one_metre):
                 scoped += _claims_for(one_metre, "1 m drop")
         if len(robot_drops):
-            scoped += _claims_for(robot_drops, f"all drops ({robot_drops.point.nunique() if 'point' in robot_drops else 1} points)")
+            scoped += _claims_for(
+                robot_drops,
+                f"all drops ({robot_drops.point.nunique() if 'point' in robot_drops else 1} points)",
+            )
         scoped += _sensitivity_claims(robot_runs)
         scoped += prescription_claims(robot_runs) if "point" in robot_runs else []
         rows += [{"robot": robot, **row} for row in scoped]
@@ -185,5 +271,6 @@ def verdict_matrix(claims: pd.DataFrame) -> pd.DataFrame:
     if rows.empty:
         return rows
     matrix = rows.assign(claim=rows["claim"].map(labels)).pivot_table(
-        index=["robot", "scope"], columns="claim", values="verdict", aggfunc="first", sort=False)
+        index=["robot", "scope"], columns="claim", values="verdict", aggfunc="first", sort=False
+    )
     return matrix[[label for label in labels.values() if label in matrix.columns]].reset_index()

@@ -14,10 +14,10 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Wedge
 from ruamel.yaml import YAML
 
-from fallbench.results import store
 from fallbench.preimpact.direction.config import DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
 from fallbench.report.figures import _save
+from fallbench.results import store
 from fallbench.scenario import Scenario
 
 PAIR_KEYS = ["point", "policy"]
@@ -31,22 +31,34 @@ def _class(label: str) -> str:
 
 def paired(runs: pd.DataFrame) -> pd.DataFrame:
     """One row per (point, policy) run with both `none` and `direction`: outcomes side by side."""
-    ok = runs[(runs.status == "ok") & runs.get("obstacle_hit", pd.Series(index=runs.index, dtype=object)).notna()]
+    ok = runs[
+        (runs.status == "ok") & runs.get("obstacle_hit", pd.Series(index=runs.index, dtype=object)).notna()
+    ]
     none = ok[ok.pre_impact == "none"].set_index(PAIR_KEYS)
     direction = ok[ok.pre_impact == "direction"].set_index(PAIR_KEYS)
     both = none.index.intersection(direction.index)
     if not len(both):
         return pd.DataFrame()
     none, direction = none.loc[both], direction.loc[both]
-    frame = pd.DataFrame({
-        "scenario": direction.scenario, "fell": none.fall_time.notna(),
-        "none_hit": none.obstacle_hit.astype(bool), "direction_hit": direction.obstacle_hit.astype(bool),
-        "none_safe": none.actual_in_safe_region.astype(bool), "direction_safe": direction.actual_in_safe_region.astype(bool),
-        "strategy": direction.direction_strategy.fillna(""), "error_deg": direction.fall_direction_error_deg,
-        "plan_ms": direction.direction_plan_ms, "step_ms": direction.get("direction_step_ms_median"),
-        "predicted_score": direction.predicted_score, "step_completed": direction.get("step_completed"),
-        "layout_yaw": direction.get("param:layout_yaw", pd.Series(0.0, index=direction.index)).fillna(0.0),
-    })
+    frame = pd.DataFrame(
+        {
+            "scenario": direction.scenario,
+            "fell": none.fall_time.notna(),
+            "none_hit": none.obstacle_hit.astype(bool),
+            "direction_hit": direction.obstacle_hit.astype(bool),
+            "none_safe": none.actual_in_safe_region.astype(bool),
+            "direction_safe": direction.actual_in_safe_region.astype(bool),
+            "strategy": direction.direction_strategy.fillna(""),
+            "error_deg": direction.fall_direction_error_deg,
+            "plan_ms": direction.direction_plan_ms,
+            "step_ms": direction.get("direction_step_ms_median"),
+            "predicted_score": direction.predicted_score,
+            "step_completed": direction.get("step_completed"),
+            "layout_yaw": direction.get("param:layout_yaw", pd.Series(0.0, index=direction.index)).fillna(
+                0.0
+            ),
+        }
+    )
     return frame.reset_index()
 
 
@@ -61,18 +73,27 @@ def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
     for (scenario, yaw), group in pairs.groupby(["scenario", "layout_yaw"]):
         hits = group[group.none_hit]
         clear = group[~group.none_hit]
-        rows.append({
-            "scenario": scenario, "layout_yaw (deg)": yaw, "runs": len(group), "falls detected": int(group.fell.sum()),
-            "none hits object": _ratio(int(group.none_hit.sum()), len(group)),
-            "direction hits object": _ratio(int(group.direction_hit.sum()), len(group)),
-            "none hits avoided by direction": _ratio(int((~hits.direction_hit).sum()), len(hits)),
-            "none clear kept clear": _ratio(int((~clear.direction_hit).sum()), len(clear)),
-            "direction falls toward a safe region": _ratio(int(group.direction_safe.sum()), len(group)),
-            "strategies chosen": ", ".join(f"{k} {v}" for k, v in group.strategy.map(_class).value_counts().items()),
-            "prediction error median (deg)": round(float(group.error_deg.median()), 1),
-            "plan median (ms)": round(float(group.plan_ms.median()), 1),
-            "control step median (ms)": round(float(group.step_ms.median()), 2) if group.step_ms.notna().any() else math.nan,
-        })
+        rows.append(
+            {
+                "scenario": scenario,
+                "layout_yaw (deg)": yaw,
+                "runs": len(group),
+                "falls detected": int(group.fell.sum()),
+                "none hits object": _ratio(int(group.none_hit.sum()), len(group)),
+                "direction hits object": _ratio(int(group.direction_hit.sum()), len(group)),
+                "none hits avoided by direction": _ratio(int((~hits.direction_hit).sum()), len(hits)),
+                "none clear kept clear": _ratio(int((~clear.direction_hit).sum()), len(clear)),
+                "direction falls toward a safe region": _ratio(int(group.direction_safe.sum()), len(group)),
+                "strategies chosen": ", ".join(
+                    f"{k} {v}" for k, v in group.strategy.map(_class).value_counts().items()
+                ),
+                "prediction error median (deg)": round(float(group.error_deg.median()), 1),
+                "plan median (ms)": round(float(group.plan_ms.median()), 1),
+                "control step median (ms)": round(float(group.step_ms.median()), 2)
+                if group.step_ms.notna().any()
+                else math.nan,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -82,44 +103,79 @@ def claims(runs: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
 
     def claim(text: str, n: int, m: int, holds: bool | None, extra: str = "") -> None:
         verdict = "n/a" if holds is None or m == 0 else ("holds" if holds else "does not hold")
-        rows.append({"claim (004)": text, "verdict": verdict, "N/M": _ratio(n, m) + (f"; {extra}" if extra else "")})
+        rows.append(
+            {"claim (004)": text, "verdict": verdict, "N/M": _ratio(n, m) + (f"; {extra}" if extra else "")}
+        )
 
     if pairs.empty:
         return pd.DataFrame(rows)
     hits, clear = pairs[pairs.none_hit], pairs[~pairs.none_hit]
     n = int((~hits.direction_hit).sum())
-    claim("direction avoids the objects that none hits (Fig. 1); holds at >= 50 %", n, len(hits), n >= 0.5 * len(hits))
+    claim(
+        "direction avoids the objects that none hits (Fig. 1); holds at >= 50 %",
+        n,
+        len(hits),
+        n >= 0.5 * len(hits),
+    )
     n = int((~clear.direction_hit).sum())
     claim("direction keeps safe none falls safe; holds at >= 95 %", n, len(clear), n >= 0.95 * len(clear))
     # the two halves of the first claim: steering the fall, and the fall model (grown circles) keeping it clear
     n = int(hits.direction_safe.sum())
-    claim("direction turns the falls that none makes hit into falls toward a safe region (actual direction, "
-          "eqs. 2-4); holds at >= 50 %", n, len(hits), n >= 0.5 * len(hits))
+    claim(
+        "direction turns the falls that none makes hit into falls toward a safe region (actual direction, "
+        "eqs. 2-4); holds at >= 50 %",
+        n,
+        len(hits),
+        n >= 0.5 * len(hits),
+    )
     toward_safe = pairs[pairs.direction_safe]
     n = int((~toward_safe.direction_hit).sum())
-    claim("a direction fall toward a safe region touches no object (objects as circles grown by robot_radius); "
-          "holds at >= 95 %", n, len(toward_safe), n >= 0.95 * len(toward_safe))
+    claim(
+        "a direction fall toward a safe region touches no object (objects as circles grown by robot_radius); "
+        "holds at >= 95 %",
+        n,
+        len(toward_safe),
+        n >= 0.95 * len(toward_safe),
+    )
     na = pairs[pairs.strategy == "no_action"]
     n = int((~na.direction_hit).sum())
     claim("when No Action is chosen (predicted safe), the fall is safe (Fig. 6)", n, len(na), n == len(na))
     chosen = pairs.strategy.map(_class)
-    classes = {"no_action": chosen == "no_action", "lift_leg": chosen.str.startswith("lift_leg"),
-               "take_step": chosen.str.startswith("take_step"), "whole-body IS": chosen.str.endswith("+wbis")}
+    classes = {
+        "no_action": chosen == "no_action",
+        "lift_leg": chosen.str.startswith("lift_leg"),
+        "take_step": chosen.str.startswith("take_step"),
+        "whole-body IS": chosen.str.endswith("+wbis"),
+    }
     safe_counts = {k: int((m & ~pairs.direction_hit).sum()) for k, m in classes.items()}
     n = sum(1 for k in classes if safe_counts[k] > 0)
-    claim("No Action, Lift a Leg, Take a Step and whole-body IS are each chosen and safe at least once", n, len(classes), n == len(classes),
-          ", ".join(f"{k} chosen {int(m.sum())}, safe {safe_counts[k]}" for k, m in classes.items()))
+    claim(
+        "No Action, Lift a Leg, Take a Step and whole-body IS are each chosen and safe at least once",
+        n,
+        len(classes),
+        n == len(classes),
+        ", ".join(f"{k} chosen {int(m.sum())}, safe {safe_counts[k]}" for k, m in classes.items()),
+    )
     wbis = pairs[chosen.str.endswith("+wbis")]
     n = int((~wbis.direction_hit).sum())
     claim("whole-body inertia shaping rescues a predicted-unsafe fall (Fig. 9)", n, len(wbis), n >= 1)
     errors = pairs.error_deg.dropna()
-    claim("prediction error median <= 15 deg (inverted-pendulum prediction, Sec. VI)", int((errors <= 15).sum()), len(errors),
-          bool(len(errors)) and float(errors.median()) <= 15, f"median {errors.median():.1f} deg" if len(errors) else "")
+    claim(
+        "prediction error median <= 15 deg (inverted-pendulum prediction, Sec. VI)",
+        int((errors <= 15).sum()),
+        len(errors),
+        bool(len(errors)) and float(errors.median()) <= 15,
+        f"median {errors.median():.1f} deg" if len(errors) else "",
+    )
     steps = pairs[chosen.str.startswith("take_step") & pairs.step_completed.notna()]
     done, undone = steps[steps.step_completed.astype(bool)], steps[~steps.step_completed.astype(bool)]
-    claim("incomplete steps fail more often than completed ones (Sec. VI)", int(undone.direction_hit.sum()), len(undone),
-          None if not len(done) or not len(undone) else undone.direction_hit.mean() > done.direction_hit.mean(),
-          f"completed steps: {int(done.direction_hit.sum())}/{len(done)} hit")
+    claim(
+        "incomplete steps fail more often than completed ones (Sec. VI)",
+        int(undone.direction_hit.sum()),
+        len(undone),
+        None if not len(done) or not len(undone) else undone.direction_hit.mean() > done.direction_hit.mean(),
+        f"completed steps: {int(done.direction_hit.sum())}/{len(done)} hit",
+    )
     rows += _ablation(runs)
     rows += _mirrors(pairs)
     return pd.DataFrame(rows)
@@ -137,22 +193,39 @@ def _ablation(runs: pd.DataFrame) -> list[dict[str, str]]:
     pis_safe = "take_step_pis" in hit.index and hit.loc["take_step_pis", "sum"] == 0
     others_hit = all(hit.loc[m, "sum"] > 0 for m in ("no_action", "take_step") if m in hit.index)
     numbers = ", ".join(f"{m}: {int(r['sum'])}/{int(r['count'])} hit" for m, r in hit.iterrows())
-    return [{"claim (004)": "Fig. 10: Take a Step + partial IS is safe where No Action and Take a Step are not",
-             "verdict": "holds" if pis_safe and others_hit else "does not hold", "N/M": numbers}]
+    return [
+        {
+            "claim (004)": "Fig. 10: Take a Step + partial IS is safe where No Action and Take a Step are not",
+            "verdict": "holds" if pis_safe and others_hit else "does not hold",
+            "N/M": numbers,
+        }
+    ]
 
 
 def _mirrors(pairs: pd.DataFrame) -> list[dict[str, str]]:
     """Each figure mirror picks 004's strategy."""
-    expected = {"dir_fig1": "take_step", "dir_fig6": "no_action", "dir_fig7": "lift_leg", "dir_fig8": "take_step+pis",
-                "dir_fig9": "no_action+wbis"}
+    expected = {
+        "dir_fig1": "take_step",
+        "dir_fig6": "no_action",
+        "dir_fig7": "lift_leg",
+        "dir_fig8": "take_step+pis",
+        "dir_fig9": "no_action+wbis",
+    }
     cases = pairs[pairs.scenario.isin(expected)]
     if cases.empty:
         return []
-    picks = cases.assign(cls=cases.strategy.map(_class)).groupby("scenario").cls.agg(lambda s: s.mode().iloc[0])
+    picks = (
+        cases.assign(cls=cases.strategy.map(_class)).groupby("scenario").cls.agg(lambda s: s.mode().iloc[0])
+    )
     match = sum(picks.get(k, "").startswith(v) for k, v in expected.items() if k in picks)
     numbers = "; ".join(f"{k}: {picks[k]} (004: {v})" for k, v in expected.items() if k in picks)
-    return [{"claim (004)": "the figure mirrors pick 004's strategies (Figs. 1, 6-9)",
-             "verdict": "holds" if match == len(picks) else "does not hold", "N/M": f"{match}/{len(picks)}; {numbers}"}]
+    return [
+        {
+            "claim (004)": "the figure mirrors pick 004's strategies (Figs. 1, 6-9)",
+            "verdict": "holds" if match == len(picks) else "does not hold",
+            "N/M": f"{match}/{len(picks)}; {numbers}",
+        }
+    ]
 
 
 def _scenario(results: Path, run_id: str) -> Scenario:
@@ -164,7 +237,9 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
     """004's view from above: objects and grown circles, safe cones about the CoM at the control
     trigger, CoM paths of none and direction, candidates' predicted directions, the chosen and
     desired directions."""
-    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index("pre_impact")
+    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
+        "pre_impact"
+    )
     if not {"none", "direction"} <= set(rows.index):
         return []
     chosen = rows.loc["direction"]
@@ -174,14 +249,35 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
     if not np.isfinite(origin).all():
         return []
     fig, ax = plt.subplots(figsize=(6.5, 6.5))
-    grown = grown_circles(scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height)
+    grown = grown_circles(
+        scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height
+    )
     for region in safe_regions(grown, origin):
         start = math.degrees(region.start)
-        ax.add_patch(Wedge(origin, PLOT_RADIUS, start, start + math.degrees(region.width), color="#17becf", alpha=0.18, lw=0))
+        ax.add_patch(
+            Wedge(
+                origin,
+                PLOT_RADIUS,
+                start,
+                start + math.degrees(region.width),
+                color="#17becf",
+                alpha=0.18,
+                lw=0,
+            )
+        )
     for obstacle in scenario.obstacles:
         circle = object_circle(obstacle)
         ax.add_patch(CirclePatch(circle.centre, circle.radius, color="#8c564b", alpha=0.55))
-        ax.add_patch(CirclePatch(circle.centre, circle.radius + config.robot_radius, fill=False, ls="--", color="#8c564b", lw=0.8))
+        ax.add_patch(
+            CirclePatch(
+                circle.centre,
+                circle.radius + config.robot_radius,
+                fill=False,
+                ls="--",
+                color="#8c564b",
+                lw=0.8,
+            )
+        )
     for name, colour in (("none", "#7f7f7f"), ("direction", "#1f77b4")):
         series = store.load_timeseries(results, rows.loc[name, "run_id"])
         hit = "hit" if rows.loc[name, "obstacle_hit"] else "clear"
@@ -190,17 +286,36 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
     level, previous = 0, -math.inf
     for candidate in candidates:
         angle = math.radians(candidate["deg"])
-        level, previous = (level + 1 if candidate["deg"] - previous < 8.0 else 0), candidate["deg"]  # stagger close rays' labels
+        level, previous = (
+            (level + 1 if candidate["deg"] - previous < 8.0 else 0),
+            candidate["deg"],
+        )  # stagger close rays' labels
         safe = candidate["score"] is not None and candidate["score"] <= 1.0
-        ax.plot(*np.c_[origin, origin + 1.0 * np.array([math.cos(angle), math.sin(angle)])], color="#2ca02c" if safe else "#d62728",
-                lw=0.8, alpha=0.7)
-        ax.annotate(f"{candidate['name']} {candidate['score'] if candidate['score'] is not None else 'inf'}",
-                    origin + (1.05 + 0.13 * level) * np.array([math.cos(angle), math.sin(angle)]), fontsize=6)
-    for value, style, label in ((chosen.predicted_fall_direction_deg, dict(color="black", ls="--"), "predicted (chosen)"),
-                                (chosen.desired_fall_direction_deg, dict(color="red"), "desired theta_d")):
+        ax.plot(
+            *np.c_[origin, origin + 1.0 * np.array([math.cos(angle), math.sin(angle)])],
+            color="#2ca02c" if safe else "#d62728",
+            lw=0.8,
+            alpha=0.7,
+        )
+        ax.annotate(
+            f"{candidate['name']} {candidate['score'] if candidate['score'] is not None else 'inf'}",
+            origin + (1.05 + 0.13 * level) * np.array([math.cos(angle), math.sin(angle)]),
+            fontsize=6,
+        )
+    for value, style, label in (
+        (chosen.predicted_fall_direction_deg, dict(color="black", ls="--"), "predicted (chosen)"),
+        (chosen.desired_fall_direction_deg, dict(color="red"), "desired theta_d"),
+    ):
         if np.isfinite(value):
-            ax.plot(*np.c_[origin, origin + 1.6 * np.array([math.cos(math.radians(value)), math.sin(math.radians(value))])], lw=1.5,
-                    label=label, **style)
+            ax.plot(
+                *np.c_[
+                    origin,
+                    origin + 1.6 * np.array([math.cos(math.radians(value)), math.sin(math.radians(value))]),
+                ],
+                lw=1.5,
+                label=label,
+                **style,
+            )
     ax.set(xlim=(-2.4, 2.4), ylim=(-2.4, 2.4), aspect="equal", xlabel="x (m)", ylabel="y (m)")
     ax.set_title(f"{point} ({policy})\ndirection chose {chosen.direction_strategy or 'nothing'}", fontsize=9)
     ax.grid(alpha=0.3)
@@ -225,7 +340,9 @@ def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:
     return _save(fig, out, "direction_hit_rates")
 
 
-def direction_report(runs: pd.DataFrame, results: Path, out: Path) -> tuple[list[Path], dict[str, pd.DataFrame]]:
+def direction_report(
+    runs: pd.DataFrame, results: Path, out: Path
+) -> tuple[list[Path], dict[str, pd.DataFrame]]:
     pairs = paired(runs)
     if pairs.empty:
         return [], {}
@@ -234,4 +351,7 @@ def direction_report(runs: pd.DataFrame, results: Path, out: Path) -> tuple[list
     cases = sorted(pairs[pairs.scenario.str.startswith("dir_fig")].point.unique())
     for point in cases:
         paths += top_down_figure(runs, results, out, point, policy)
-    return paths, {"Object hits, none vs direction (004)": hit_table(pairs), "Claims of 004": claims(runs, pairs)}
+    return paths, {
+        "Object hits, none vs direction (004)": hit_table(pairs),
+        "Claims of 004": claims(runs, pairs),
+    }

@@ -41,15 +41,24 @@ def _policy_lines(series: dict[str, pd.DataFrame], rows: pd.DataFrame, column: s
     return fig, ax
 
 
-def imu_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
+def imu_figure(
+    series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, out: Path, stem: str
+) -> list[Path]:
     fig, ax = _policy_lines(series, rows, "imu_acc_z")
     ax.set(ylabel="waist IMU z acceleration (m/s$^2$)", title=f"{title}: IMU z (cf. 002 Fig. 6a)")
     ax.legend()
     return _save(fig, out, stem)
 
 
-def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits: tuple[float, float], title: str,
-                out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
+def knee_figure(
+    series: dict[str, pd.DataFrame],
+    rows: pd.DataFrame,
+    knee_limits: tuple[float, float],
+    title: str,
+    out: Path,
+    stem: str,
+    leg: dict[str, str],
+) -> list[Path]:
     fig, ax = _policy_lines(series, rows, f"q:{leg['knee']}")
     for limit in knee_limits:
         ax.axhline(limit, color="black", linestyle=":", linewidth=1.0)
@@ -59,15 +68,24 @@ def knee_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, knee_limits
     return _save(fig, out, stem)
 
 
-def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_limits: dict[str, float], title: str,
-                  out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
+def torque_figure(
+    series: dict[str, pd.DataFrame],
+    rows: pd.DataFrame,
+    torque_limits: dict[str, float],
+    title: str,
+    out: Path,
+    stem: str,
+    leg: dict[str, str],
+) -> list[Path]:
     policies = ordered(series)
     fig, axes = plt.subplots(len(policies), 1, figsize=(7, 2.2 * len(policies)), sharex=True, squeeze=False)
     styles = {"hip": "-", "knee": "--", "ankle": ":"}
     for ax, policy in zip(axes[:, 0], policies):
         ts = series[policy]
         for part, joint in leg.items():
-            ax.plot(ts.t, ts[f"tau:{joint}"], color=colour(policy), linestyle=styles[part], label=f"{part} pitch")
+            ax.plot(
+                ts.t, ts[f"tau:{joint}"], color=colour(policy), linestyle=styles[part], label=f"{part} pitch"
+            )
             limit = torque_limits[joint]
             ax.axhline(limit, color="grey", linestyle="--", linewidth=0.6)
             ax.axhline(-limit, color="grey", linestyle="--", linewidth=0.6)
@@ -80,7 +98,9 @@ def torque_figure(series: dict[str, pd.DataFrame], rows: pd.DataFrame, torque_li
     return _save(fig, out, stem)
 
 
-def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str, leg: dict[str, str]) -> list[Path]:
+def gains_figure(
+    ts: pd.DataFrame, impact: float, title: str, out: Path, stem: str, leg: dict[str, str]
+) -> list[Path]:
     """K and B of the leg's pitch joints, and the knee's velocity (from its recorded angle): 002 Fig. 5
     discusses B against the sign of the knee velocity. Left: the landing (impact - 0.05 s to impact +
     GAINS_ZOOM s, each panel scaled to it); right: the whole episode after impact."""
@@ -93,10 +113,28 @@ def gains_figure(ts: pd.DataFrame, impact: float, title: str, out: Path, stem: s
         ax_k, ax_b, ax_v = axes[:, column]
         shown = (t >= start) & (t <= end)
         for part, joint in leg.items():
-            ax_k.plot(t[shown], ts[f"K:{joint}"][shown], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
-            ax_b.plot(t[shown], ts[f"B:{joint}"][shown], color=colour("adaptive_qp"), linestyle=styles[part], label=f"{part} pitch")
+            ax_k.plot(
+                t[shown],
+                ts[f"K:{joint}"][shown],
+                color=colour("adaptive_qp"),
+                linestyle=styles[part],
+                label=f"{part} pitch",
+            )
+            ax_b.plot(
+                t[shown],
+                ts[f"B:{joint}"][shown],
+                color=colour("adaptive_qp"),
+                linestyle=styles[part],
+                label=f"{part} pitch",
+            )
         if knee in ts:
-            ax_v.plot(t[shown], np.gradient(ts[knee].to_numpy(dtype=float), t)[shown], color="black", linestyle="--", linewidth=1.0)
+            ax_v.plot(
+                t[shown],
+                np.gradient(ts[knee].to_numpy(dtype=float), t)[shown],
+                color="black",
+                linestyle="--",
+                linewidth=1.0,
+            )
             ax_v.axhline(0.0, color="grey", linewidth=0.6)
         for ax in (ax_k, ax_b, ax_v):
             _impact_line(ax, impact)

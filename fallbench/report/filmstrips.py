@@ -25,13 +25,17 @@ def chosen_runs(runs: pd.DataFrame) -> dict[str, pd.DataFrame]:
         robots = drops.robot if "robot" in drops else pd.Series("", index=drops.index)
         for robot, drop in drops.groupby(robots):
             rank = {policy: i for i, policy in enumerate(ordered(drop.policy))}
-            chosen[f"The 1 m drop of 002 {robot}, each gain policy".replace("  ", " ")] = drop.sort_values("policy", key=lambda p: p.map(rank))
+            chosen[f"The 1 m drop of 002 {robot}, each gain policy".replace("  ", " ")] = drop.sort_values(
+                "policy", key=lambda p: p.map(rank)
+            )
     family, directions, policy = RESHAPED_FALLS
     if DIRECTION in ok:
         pushes = ok[(ok.scenario == family) & ok[DIRECTION].isin(directions) & (ok.policy == policy)]
         pushes = pushes[pushes.robot == DEFAULT_ROBOT] if "robot" in pushes else pushes
         if len(pushes):
-            chosen[f"{family}, {policy}: front and back pushes, none vs reshape"] = pushes.sort_values([DIRECTION, "pre_impact"])
+            chosen[f"{family}, {policy}: front and back pushes, none vs reshape"] = pushes.sort_values(
+                [DIRECTION, "pre_impact"]
+            )
     return chosen
 
 

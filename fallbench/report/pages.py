@@ -8,14 +8,18 @@ from pathlib import Path
 
 import pandas as pd
 
-STYLE = ("body{font-family:sans-serif;max-width:1200px;margin:auto;padding:0 1em}table{border-collapse:collapse;margin:0.5em 0}"
-         "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px}th{background:#f3f3f3}"
-         ".verdict{font-weight:bold;margin:0.3em 0}img{max-width:100%}details{margin:0.4em 0}summary{cursor:pointer}")
+STYLE = (
+    "body{font-family:sans-serif;max-width:1200px;margin:auto;padding:0 1em}table{border-collapse:collapse;margin:0.5em 0}"
+    "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px}th{background:#f3f3f3}"
+    ".verdict{font-weight:bold;margin:0.3em 0}img{max-width:100%}details{margin:0.4em 0}summary{cursor:pointer}"
+)
 
 
 def page(title: str, body: list[str]) -> str:
-    return (f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-            f"<style>{STYLE}</style></head><body>" + "\n".join(body) + "</body></html>")
+    return (
+        f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+        f"<style>{STYLE}</style></head><body>" + "\n".join(body) + "</body></html>"
+    )
 
 
 def image(path: Path, out: Path) -> str:

@@ -9,44 +9,59 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from fallbench.results import store
-from fallbench.robots import get_robot
 from fallbench.report.figures import _save
 from fallbench.report.grouping import with_robot
 from fallbench.report.style import STRATEGY_LINES
+from fallbench.results import store
+from fallbench.robots import get_robot
 
 DIRECTION = "param:push.direction"
 STRATEGY_COLOURS = {"none": "#7f7f7f", "reshape": "#2ca02c"}
 TIMELINE_GROUPS = ("feet", "knees", "hands", "arms", "torso", "head")
-SHORT_LABELS = {"front": "front", "back": "back", "side": "side", "front diagonal": "fr. diag.", "back diagonal": "bk. diag."}
+SHORT_LABELS = {
+    "front": "front",
+    "back": "back",
+    "side": "side",
+    "front diagonal": "fr. diag.",
+    "back diagonal": "bk. diag.",
+}
 
 
 def push_label(direction: float) -> str:
     """The fall a push from the nominal stance starts (robot facing +x): front, back, side or diagonal."""
     angle = direction % 360
-    return {0: "front", 180: "back", 90: "side", 270: "side"}.get(angle, "front diagonal" if angle < 90 or angle > 270 else "back diagonal")
+    return {0: "front", 180: "back", 90: "side", 270: "side"}.get(
+        angle, "front diagonal" if angle < 90 or angle > 270 else "back diagonal"
+    )
 
 
 def first_impact_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per robot, push class and strategy: where the first impact lands, and head and torso peak forces."""
     runs = with_robot(runs)
-    pushes = runs[(runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")]
+    pushes = runs[
+        (runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")
+    ]
     if DIRECTION not in pushes or pushes.empty:
         return pd.DataFrame()
     pushes = pushes.assign(fall=pushes[DIRECTION].map(push_label))
     rows = []
     for (robot, fall, strategy), group in pushes.groupby(["robot", "fall", "pre_impact"]):
         first = group.first_impact_group
-        rows.append({
-            "robot": robot, "push": fall, "pre_impact": strategy, "falls": len(group),
-            "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
-            "first on knees (%)": round(100 * first.str.contains("knees").mean()),
-            "first on arms/elbows (%)": round(100 * first.str.contains("arms").mean()),
-            "first on torso/head (%)": round(100 * first.str.contains("torso|head").mean()),
-            "head peak median (N)": round(group.contact_force_peak_head.median()),
-            "torso peak median (N)": round(group.contact_force_peak_torso.median()),
-            "time to first impact median (s)": round(group.time_to_first_impact.median(), 3),
-        })
+        rows.append(
+            {
+                "robot": robot,
+                "push": fall,
+                "pre_impact": strategy,
+                "falls": len(group),
+                "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
+                "first on knees (%)": round(100 * first.str.contains("knees").mean()),
+                "first on arms/elbows (%)": round(100 * first.str.contains("arms").mean()),
+                "first on torso/head (%)": round(100 * first.str.contains("torso|head").mean()),
+                "head peak median (N)": round(group.contact_force_peak_head.median()),
+                "torso peak median (N)": round(group.contact_force_peak_torso.median()),
+                "time to first impact median (s)": round(group.time_to_first_impact.median(), 3),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -57,8 +72,12 @@ def _fallen_pushes(runs: pd.DataFrame) -> pd.DataFrame:
     """Push runs that landed, with `fall` = front/back/side from the waist's lean at the first impact."""
     if "first_impact_prescribed" not in runs:
         return pd.DataFrame()
-    pushes = runs[(runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")
-                  & runs.fall_class.isin(list(SIDE_CLASSES))]
+    pushes = runs[
+        (runs.status == "ok")
+        & runs.scenario.str.startswith("push")
+        & (runs.first_impact_group != "")
+        & runs.fall_class.isin(list(SIDE_CLASSES))
+    ]
     return pushes.assign(fall=pushes.fall_class.map(SIDE_CLASSES))
 
 
@@ -71,17 +90,21 @@ def prescription_table(runs: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for (fall, strategy), group in pushes.groupby(["fall", "pre_impact"]):
         knees = group.knees_simultaneous.dropna()
-        rows.append({
-            "fall": fall, "pre_impact": strategy, "falls": len(group),
-            "prescribed (%)": round(100 * group.first_impact_prescribed.mean()),
-            "knees together": f"{int(knees.sum())}/{len(knees)}",
-            "head before hands (%)": round(100 * group.head_before_hands.mean()),
-            "head peak median (N)": round(group.contact_force_peak_head.median()),
-            "torso peak median (N)": round(group.contact_force_peak_torso.median()),
-            "IMU peak median (m/s^2)": round(group.imu_peak_norm.median()),
-            "IMU z 5 ms peak median (m/s^2)": round(group.imu_peak_z_5ms.median()),
-            "detection to impact median (s)": round(group.fall_lead_time.median(), 3),
-        })
+        rows.append(
+            {
+                "fall": fall,
+                "pre_impact": strategy,
+                "falls": len(group),
+                "prescribed (%)": round(100 * group.first_impact_prescribed.mean()),
+                "knees together": f"{int(knees.sum())}/{len(knees)}",
+                "head before hands (%)": round(100 * group.head_before_hands.mean()),
+                "head peak median (N)": round(group.contact_force_peak_head.median()),
+                "torso peak median (N)": round(group.contact_force_peak_torso.median()),
+                "IMU peak median (m/s^2)": round(group.imu_peak_norm.median()),
+                "IMU z 5 ms peak median (m/s^2)": round(group.imu_peak_z_5ms.median()),
+                "detection to impact median (s)": round(group.fall_lead_time.median(), 3),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -93,7 +116,11 @@ def detection_table(runs: pd.DataFrame) -> pd.DataFrame:
         return pd.DataFrame()
     rows = []
     for fall, group in pushes[pushes.pre_impact == "none"].groupby("fall"):
-        row: dict[str, object] = {"fall": fall, "falls": len(group), "declared by": ", ".join(sorted(group.fall_reason.unique()))}
+        row: dict[str, object] = {
+            "fall": fall,
+            "falls": len(group),
+            "declared by": ", ".join(sorted(group.fall_reason.unique())),
+        }
         for method in ("capture_point", "tilt", "freefall"):
             lead = group[f"fall_lead_time_{method}"]
             row[f"{method} fired (%)"] = round(100 * lead.notna().mean())
@@ -105,23 +132,34 @@ def detection_table(runs: pd.DataFrame) -> pd.DataFrame:
 def clutter_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per robot, obstacle scenario and strategy: landing error, obstacle contacts, head and torso peaks."""
     runs = with_robot(runs)
-    cluttered = runs[(runs.status == "ok") & (runs.obstacle_force_peak.notna()) & ~runs.scenario.str.startswith(("push", "drop", "ci_"))]
+    cluttered = runs[
+        (runs.status == "ok")
+        & (runs.obstacle_force_peak.notna())
+        & ~runs.scenario.str.startswith(("push", "drop", "ci_"))
+    ]
     rows = []
     for (robot, scenario, strategy), group in cluttered.groupby(["robot", "scenario", "pre_impact"]):
-        rows.append({
-            "robot": robot, "scenario": scenario, "pre_impact": strategy, "runs": len(group),
-            "landing error median (m)": round(group.landing_error.median(), 3),
-            "landing error max (m)": round(group.landing_error.max(), 3),
-            "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
-            "head peak median (N)": round(group.contact_force_peak_head.median()),
-            "torso peak median (N)": round(group.contact_force_peak_torso.median()),
-            "obstacle peak median (N)": round(group.obstacle_force_peak.median()),
-        })
+        rows.append(
+            {
+                "robot": robot,
+                "scenario": scenario,
+                "pre_impact": strategy,
+                "runs": len(group),
+                "landing error median (m)": round(group.landing_error.median(), 3),
+                "landing error max (m)": round(group.landing_error.max(), 3),
+                "first on hands/feet (%)": round(100 * group.first_impact_safe.mean()),
+                "head peak median (N)": round(group.contact_force_peak_head.median()),
+                "torso peak median (N)": round(group.contact_force_peak_torso.median()),
+                "obstacle peak median (N)": round(group.obstacle_force_peak.median()),
+            }
+        )
     return pd.DataFrame(rows)
 
 
 def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
-    pushes = runs[(runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")]
+    pushes = runs[
+        (runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")
+    ]
     if DIRECTION not in pushes or pushes.pre_impact.nunique() < 2:
         return []
     directions = sorted(pushes[DIRECTION].unique())
@@ -130,22 +168,46 @@ def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
     for offset, strategy in zip((-width / 2, width / 2), ("none", "reshape")):
         group = pushes[pushes.pre_impact == strategy].groupby(DIRECTION)
         x = np.arange(len(directions)) + offset
-        for ax, values in zip(axes, (100 * group.first_impact_safe.mean(), group.contact_force_peak_head.median(),
-                                     group.contact_force_peak_torso.median())):
-            ax.bar(x, values.reindex(directions).to_numpy(), width, color=STRATEGY_COLOURS[strategy], label=strategy)
-    titles = ("first impact on hands or feet (% of runs)", "head peak contact force, median (N)", "torso peak contact force, median (N)")
+        for ax, values in zip(
+            axes,
+            (
+                100 * group.first_impact_safe.mean(),
+                group.contact_force_peak_head.median(),
+                group.contact_force_peak_torso.median(),
+            ),
+        ):
+            ax.bar(
+                x,
+                values.reindex(directions).to_numpy(),
+                width,
+                color=STRATEGY_COLOURS[strategy],
+                label=strategy,
+            )
+    titles = (
+        "first impact on hands or feet (% of runs)",
+        "head peak contact force, median (N)",
+        "torso peak contact force, median (N)",
+    )
     for ax, title in zip(axes, titles):
-        ax.set_xticks(range(len(directions)), [f"{d:g}\n{SHORT_LABELS[push_label(d)]}" for d in directions], fontsize=8)
+        ax.set_xticks(
+            range(len(directions)), [f"{d:g}\n{SHORT_LABELS[push_label(d)]}" for d in directions], fontsize=8
+        )
         ax.set(xlabel="push direction (deg, 0 = robot forward)", title=title)
         ax.grid(alpha=0.3, axis="y")
-    fig.legend(*axes[0].get_legend_handles_labels(), title="pre-impact", loc="upper right", ncol=2, fontsize=8)
-    fig.suptitle(f"Pushes from the nominal stance: none vs reshape ({len(pushes)} runs that fell, all gain policies)")
+    fig.legend(
+        *axes[0].get_legend_handles_labels(), title="pre-impact", loc="upper right", ncol=2, fontsize=8
+    )
+    fig.suptitle(
+        f"Pushes from the nominal stance: none vs reshape ({len(pushes)} runs that fell, all gain policies)"
+    )
     return _save(fig, out, "preimpact_first_impact")
 
 
 def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
     """Joint trajectories and the first-contact timeline of one point, with and without reshaping."""
-    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index("pre_impact")
+    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
+        "pre_impact"
+    )
     if not {"none", "reshape"} <= set(rows.index):
         return []
     series = {s: store.load_timeseries(results, rows.loc[s, "run_id"]) for s in ("none", "reshape")}
@@ -153,19 +215,31 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for (joint, label), c in zip(get_robot(rows.loc["reshape", "robot"]).trajectory_joints.items(), colours):
         for strategy, ts in series.items():
-            axes[0].plot(ts.t, ts[f"q:{joint}"], color=c, linestyle=STRATEGY_LINES[strategy],
-                         label=f"{label} ({strategy})" if strategy == "reshape" else None)
+            axes[0].plot(
+                ts.t,
+                ts[f"q:{joint}"],
+                color=c,
+                linestyle=STRATEGY_LINES[strategy],
+                label=f"{label} ({strategy})" if strategy == "reshape" else None,
+            )
     fall = rows.loc["reshape", "fall_time"]
     axes[0].axvline(fall, color="black", linestyle=":", linewidth=0.8, label="fall detected")
     axes[0].set(xlabel="time (s)", ylabel="joint angle (rad)", title="joints: reshape solid, none dashed")
     axes[0].legend(fontsize=7, ncol=2)
     axes[0].grid(alpha=0.3)
-    for row, (strategy, ts) in enumerate(series.items()):
+    for strategy, ts in series.items():
         for k, group in enumerate(TIMELINE_GROUPS):
             touching = ts[f"force:{group}"].to_numpy() > 0
             y = k + (0.2 if strategy == "reshape" else -0.2)
-            axes[1].fill_between(ts.t, y - 0.15, y + 0.15, where=touching, color=STRATEGY_COLOURS[strategy],
-                                 label=strategy if k == 0 else None, step="mid")
+            axes[1].fill_between(
+                ts.t,
+                y - 0.15,
+                y + 0.15,
+                where=touching,
+                color=STRATEGY_COLOURS[strategy],
+                label=strategy if k == 0 else None,
+                step="mid",
+            )
     axes[1].set_yticks(range(len(TIMELINE_GROUPS)), TIMELINE_GROUPS)
     axes[1].set_xlim(fall - 0.1, min(series["reshape"].t.max(), fall + 1.6))
     axes[1].axvline(fall, color="black", linestyle=":", linewidth=0.8)
@@ -176,14 +250,18 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     return _save(fig, out, stem)
 
 
-def preimpact_report(runs: pd.DataFrame, results: Path, out: Path) -> tuple[list[Path], dict[str, pd.DataFrame]]:
+def preimpact_report(
+    runs: pd.DataFrame, results: Path, out: Path
+) -> tuple[list[Path], dict[str, pd.DataFrame]]:
     paths = first_impact_figure(runs, out)
     front_back = runs[(runs.scenario == "push_200N") & (runs.seed == 0)]
     if DIRECTION in front_back:
         for point in sorted(front_back.loc[front_back[DIRECTION].isin([0, 180]), "point"].unique()):
             paths += reshaped_fall_figure(runs, results, out, point, "stiff")
-    tables = {"First impact and head/torso peak forces of pushes, per push direction": first_impact_table(runs),
-              "000's landing order per fall class (at impact), pushes": prescription_table(runs),
-              "Fall detectors' lead time to the first impact, pushes without reshaping": detection_table(runs),
-              "Landing among obstacles": clutter_table(runs)}
+    tables = {
+        "First impact and head/torso peak forces of pushes, per push direction": first_impact_table(runs),
+        "000's landing order per fall class (at impact), pushes": prescription_table(runs),
+        "Fall detectors' lead time to the first impact, pushes without reshaping": detection_table(runs),
+        "Landing among obstacles": clutter_table(runs),
+    }
     return paths, tables

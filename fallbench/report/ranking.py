@@ -73,11 +73,20 @@ def _arms(runs: pd.DataFrame) -> list[tuple[str, str]]:
 def estimates(runs: pd.DataFrame) -> dict[tuple[str, str], dict[str, Estimate]]:
     """(strategy, policy) -> measure column -> estimate over the family's ok runs (points x seeds)."""
     ok = runs[runs.status == "ok"]
-    return {(s, p): {m.column: bootstrap(ok.loc[(ok.pre_impact == s) & (ok.policy == p), m.column].astype(float), m.statistic)
-                     for m in measures_for(runs)} for s, p in _arms(ok)}
+    return {
+        (s, p): {
+            m.column: bootstrap(
+                ok.loc[(ok.pre_impact == s) & (ok.policy == p), m.column].astype(float), m.statistic
+            )
+            for m in measures_for(runs)
+        }
+        for s, p in _arms(ok)
+    }
 
 
-def _ranked(runs: pd.DataFrame) -> tuple[pd.DataFrame, dict[tuple[str, str], dict[str, Estimate]], list[Measure]]:
+def _ranked(
+    runs: pd.DataFrame,
+) -> tuple[pd.DataFrame, dict[tuple[str, str], dict[str, Estimate]], list[Measure]]:
     found = measures_for(runs)
     table = estimates(runs)
     if not table:
@@ -86,11 +95,19 @@ def _ranked(runs: pd.DataFrame) -> tuple[pd.DataFrame, dict[tuple[str, str], dic
     ranks = pd.DataFrame({m.column: values[m.column].rank(ascending=m.lower_is_better) for m in found})
     rows = []
     for arm, per_measure in table.items():
-        row = {"pre_impact": arm[0], "policy": arm[1], "mean rank": round(float(ranks.loc[arm].mean()), 2),
-               "runs": max(e.n for e in per_measure.values())}
+        row = {
+            "pre_impact": arm[0],
+            "policy": arm[1],
+            "mean rank": round(float(ranks.loc[arm].mean()), 2),
+            "runs": max(e.n for e in per_measure.values()),
+        }
         row.update({m.label: per_measure[m.column].format() for m in found})
         rows.append(row)
-    ranking = pd.DataFrame(rows).sort_values(["mean rank", "pre_impact", "policy"], kind="stable").reset_index(drop=True)
+    ranking = (
+        pd.DataFrame(rows)
+        .sort_values(["mean rank", "pre_impact", "policy"], kind="stable")
+        .reset_index(drop=True)
+    )
     return ranking, table, found
 
 
@@ -113,13 +130,22 @@ def verdict(runs: pd.DataFrame) -> str:
         return f"only {name} ran"
     second = table.iloc[1]
     first_arm, second_arm = (best.pre_impact, best.policy), (second.pre_impact, second.policy)
-    clear = [m.label.split(" (")[0] for m in found if est[first_arm][m.column].disjoint(est[second_arm][m.column])]
+    clear = [
+        m.label.split(" (")[0] for m in found if est[first_arm][m.column].disjoint(est[second_arm][m.column])
+    ]
     line = f"least damage: {name} (mean rank {best['mean rank']:g} of {len(table)} over {len(found)} measures, {int(best.runs)} runs)"
     if int(best.runs) < 2:
         return line + "; one run each, so no interval: a ranking of single falls, not of distributions"
     if clear:
-        return line + f"; its 95 % interval is clear of the runner-up's ({second.pre_impact} + {second.policy}) on " + ", ".join(clear)
-    return line + f"; its intervals overlap the runner-up's ({second.pre_impact} + {second.policy}) on every measure: no clear winner"
+        return (
+            line
+            + f"; its 95 % interval is clear of the runner-up's ({second.pre_impact} + {second.policy}) on "
+            + ", ".join(clear)
+        )
+    return (
+        line
+        + f"; its intervals overlap the runner-up's ({second.pre_impact} + {second.policy}) on every measure: no clear winner"
+    )
 
 
 def relative_changes(runs: pd.DataFrame) -> pd.DataFrame:
@@ -129,7 +155,11 @@ def relative_changes(runs: pd.DataFrame) -> pd.DataFrame:
     ok = runs[runs.status == "ok"]
     columns = [c for c in (*RELATIVE_MEASURES, *COUNT_MEASURES) if c in ok]
     key = ["robot", "point"] if "robot" in ok else ["point"]
-    reference = ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])].set_index(key)[columns].astype(float)
+    reference = (
+        ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])]
+        .set_index(key)[columns]
+        .astype(float)
+    )
     if reference.empty or not columns:
         return pd.DataFrame()
     rows = []
@@ -138,10 +168,16 @@ def relative_changes(runs: pd.DataFrame) -> pd.DataFrame:
             continue
         arm = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].set_index(key)[columns].astype(float)
         ref = reference.reindex(arm.index)
-        row: dict[str, object] = {"pre_impact": strategy, "policy": policy, "paired runs": int(ref[columns[0]].notna().sum())}
+        row: dict[str, object] = {
+            "pre_impact": strategy,
+            "policy": policy,
+            "paired runs": int(ref[columns[0]].notna().sum()),
+        }
         for column in columns:
             if column in COUNT_MEASURES:
-                row[f"{COUNT_MEASURES[column]} (difference)"] = bootstrap(arm[column] - ref[column], "mean").format(2)
+                row[f"{COUNT_MEASURES[column]} (difference)"] = bootstrap(
+                    arm[column] - ref[column], "mean"
+                ).format(2)
             else:
                 change = 100 * (arm[column] - ref[column]) / ref[column].where(ref[column] > 0)
                 row[f"{RELATIVE_MEASURES[column]} (%)"] = bootstrap(change).format(2)

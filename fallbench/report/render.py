@@ -49,10 +49,16 @@ def find_run(results: Path, run_id: str) -> str:
     folder = results / store.RUNS
     if (folder / run_id).is_dir():
         return run_id
-    matches = sorted(p.name for p in folder.glob(f"{run_id}*") if p.is_dir() and not p.name.startswith(".")) if folder.is_dir() else []
+    matches = (
+        sorted(p.name for p in folder.glob(f"{run_id}*") if p.is_dir() and not p.name.startswith("."))
+        if folder.is_dir()
+        else []
+    )
     if len(matches) != 1:
         found = "no stored run" if not matches else f"{len(matches)} stored runs"
-        raise ReplayMissing(f"{results}: {found} with id {run_id!r} (see `fallbench results --columns run_id,point,policy,pre_impact`)")
+        raise ReplayMissing(
+            f"{results}: {found} with id {run_id!r} (see `fallbench results --columns run_id,point,policy,pre_impact`)"
+        )
     return matches[0]
 
 
@@ -63,12 +69,20 @@ def load_replay(results: Path, run_id: str) -> Replay:
     series = store.load_timeseries(results, run_id)
     columns = sorted((c for c in series.columns if c.startswith("qpos:")), key=lambda c: int(c.split(":")[1]))
     if not columns:
-        raise ReplayMissing(f"run {run_id} has no qpos in its time series (stored by an older fallbench): run it again to render it")
+        raise ReplayMissing(
+            f"run {run_id} has no qpos in its time series (stored by an older fallbench): run it again to render it"
+        )
     sampled = series[["t", *columns]].dropna()
     row = pd.read_parquet(folder / store.METRICS).iloc[0]
     label = f"{row.pre_impact} + {row.policy}, {row.point}"
-    return Replay(run_id, Scenario.model_validate(spec["scenario"]), label, sampled.t.to_numpy(float),
-                  sampled[columns].to_numpy(float), row)
+    return Replay(
+        run_id,
+        Scenario.model_validate(spec["scenario"]),
+        label,
+        sampled.t.to_numpy(float),
+        sampled[columns].to_numpy(float),
+        row,
+    )
 
 
 def _scene_model(scenario: Scenario):
@@ -79,12 +93,22 @@ def _scene_model(scenario: Scenario):
     from fallbench.sim.world import FLOOR_NAME, build_spec
 
     spec = build_spec(scenario)
-    spec.compiler.discardvisual = False  # it would drop the textures below (the URDF's visual meshes are gone already)
+    spec.compiler.discardvisual = (
+        False  # it would drop the textures below (the URDF's visual meshes are gone already)
+    )
     sky = spec.add_texture()
-    sky.name, sky.type, sky.builtin = "sky", mujoco.mjtTexture.mjTEXTURE_SKYBOX, mujoco.mjtBuiltin.mjBUILTIN_GRADIENT
+    sky.name, sky.type, sky.builtin = (
+        "sky",
+        mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+    )
     sky.rgb1, sky.rgb2, sky.width, sky.height = [0.75, 0.85, 0.95], [1.0, 1.0, 1.0], 256, 1536
     grid = spec.add_texture()
-    grid.name, grid.type, grid.builtin = "grid", mujoco.mjtTexture.mjTEXTURE_2D, mujoco.mjtBuiltin.mjBUILTIN_CHECKER
+    grid.name, grid.type, grid.builtin = (
+        "grid",
+        mujoco.mjtTexture.mjTEXTURE_2D,
+        mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+    )
     grid.rgb1, grid.rgb2, grid.width, grid.height = [0.85, 0.85, 0.85], [0.7, 0.7, 0.72], 512, 512
     material = spec.add_material()
     material.name, material.texrepeat, material.texuniform = "grid", [2.0, 2.0], True
@@ -157,11 +181,17 @@ class Camera:
             with warnings.catch_warnings():  # GLFW warns before it fails; the reason is enough
                 warnings.simplefilter("ignore")
                 self.renderer = mujoco.Renderer(self.model, size[1], size[0])
-        except Exception as exc:  # each GL backend fails its own way (ImportError, FatalError, AttributeError)
+        except (
+            Exception
+        ) as exc:  # each GL backend fails its own way (ImportError, FatalError, AttributeError)
             raise RenderUnavailable(_gl_reason(exc)) from None
         self.camera = mujoco.MjvCamera()
         self.camera.lookat[:] = view.lookat
-        self.camera.distance, self.camera.azimuth, self.camera.elevation = view.distance, view.azimuth, CAMERA_ELEVATION
+        self.camera.distance, self.camera.azimuth, self.camera.elevation = (
+            view.distance,
+            view.azimuth,
+            CAMERA_ELEVATION,
+        )
 
     def frame(self, qpos: np.ndarray) -> np.ndarray:
         self.data.qpos[:] = qpos
@@ -178,8 +208,10 @@ def _gl_reason(exc: Exception) -> str:
 
     backend = os.environ.get("MUJOCO_GL", "")
     first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    return (f"no OpenGL context for offscreen rendering (MUJOCO_GL={backend or 'unset'}: {first}); "
-            "on a headless Linux machine use MUJOCO_GL=egl with Mesa's EGL installed")
+    return (
+        f"no OpenGL context for offscreen rendering (MUJOCO_GL={backend or 'unset'}: {first}); "
+        "on a headless Linux machine use MUJOCO_GL=egl with Mesa's EGL installed"
+    )
 
 
 def _at(replay: Replay, t: float) -> np.ndarray:
@@ -218,7 +250,9 @@ def filmstrip(results: Path, run_id: str, out: Path) -> Path:
         frames = [camera.frame(_at(replay, t)) for t, _ in moments]
     finally:
         camera.close()
-    fig, axes = plt.subplots(1, len(frames), figsize=(2.6 * len(frames), 2.6 * FRAME_SIZE[1] / FRAME_SIZE[0] + 0.6), squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(frames), figsize=(2.6 * len(frames), 2.6 * FRAME_SIZE[1] / FRAME_SIZE[0] + 0.6), squeeze=False
+    )
     for ax, image, (t, caption) in zip(axes[0], frames, moments):
         ax.imshow(image)
         ax.set_title(f"{t:.2f} s\n{caption}", fontsize=7)
@@ -252,8 +286,10 @@ def video(results: Path, run_ids: list[str], out: Path, fps: int = 30, speed: fl
     frames = []
     try:
         for t in times:
-            views = [_caption(c.frame(_at(r, t)), f"{r.row.pre_impact} + {r.row.policy}   t = {t:.2f} s")
-                     for c, r in zip(cameras, replays)]
+            views = [
+                _caption(c.frame(_at(r, t)), f"{r.row.pre_impact} + {r.row.policy}   t = {t:.2f} s")
+                for c, r in zip(cameras, replays)
+            ]
             frames.append(np.concatenate(views, axis=1))
     finally:
         for camera in cameras:

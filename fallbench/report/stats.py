@@ -34,17 +34,22 @@ class Estimate:
             return f"{value} (n={self.n})"
         return f"{value} [{_fmt(self.low, digits)}, {_fmt(self.high, digits)}]"
 
-    def disjoint(self, other: "Estimate") -> bool:
+    def disjoint(self, other: Estimate) -> bool:
         """Whether the two intervals do not overlap (a difference the data support)."""
         return bool(self.high < other.low or other.high < self.low)
 
 
 def _fmt(value: float, digits: int) -> str:
-    return f"{value:.{digits}g}" if abs(value) < 10 ** digits else f"{value:.0f}"
+    return f"{value:.{digits}g}" if abs(value) < 10**digits else f"{value:.0f}"
 
 
-def bootstrap(values, statistic: str = "median", confidence: float = CONFIDENCE, resamples: int = RESAMPLES,
-              seed: int = SEED) -> Estimate:
+def bootstrap(
+    values,
+    statistic: str = "median",
+    confidence: float = CONFIDENCE,
+    resamples: int = RESAMPLES,
+    seed: int = SEED,
+) -> Estimate:
     """The sample's median (or mean) and its percentile-bootstrap interval over resampled values,
     with a seeded generator so that the report is deterministic. NaNs are dropped."""
     data = np.asarray(values, dtype=float)
@@ -56,8 +61,15 @@ def bootstrap(values, statistic: str = "median", confidence: float = CONFIDENCE,
     if len(data) < 2 or np.all(data == data[0]):
         low = high = value if len(data) >= 2 else float("nan")
         return Estimate(value, low, high, len(data))
-    result = stats.bootstrap((data,), function, n_resamples=resamples, confidence_level=confidence,
-                             method="percentile", vectorized=True, rng=np.random.default_rng(seed))
+    result = stats.bootstrap(
+        (data,),
+        function,
+        n_resamples=resamples,
+        confidence_level=confidence,
+        method="percentile",
+        vectorized=True,
+        rng=np.random.default_rng(seed),
+    )
     interval = result.confidence_interval
     return Estimate(value, float(interval.low), float(interval.high), len(data))
 

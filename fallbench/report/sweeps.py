@@ -10,8 +10,8 @@ import pandas as pd
 
 from fallbench.report.figures import _save
 from fallbench.report.grouping import with_robot
-from fallbench.robots import DEFAULT_ROBOT
 from fallbench.report.style import STRATEGY_LINES, colour, ordered
+from fallbench.robots import DEFAULT_ROBOT
 
 MAX_LINE_POINTS = 8  # more distinct values than this (a randomised key): markers only
 
@@ -50,20 +50,33 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
     for (robot, scenario), group in runs.groupby(["robot", "scenario"]):
         for param in params:
             values = group[param].dropna()
-            if values.nunique() < 2 or not pd.api.types.is_numeric_dtype(values):  # string parameters (a forced mode) have no axis
+            if values.nunique() < 2 or not pd.api.types.is_numeric_dtype(
+                values
+            ):  # string parameters (a forced mode) have no axis
                 continue
             scattered = values.nunique() > MAX_LINE_POINTS  # randomised values: points, not lines
             fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
             for ax, metric in zip(axes, ["imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max"]):
                 for (strategy, policy), lines in group.groupby(["pre_impact", "policy"]):
                     medians = lines.groupby(param)[metric].median()
-                    ax.plot(medians.index, medians.to_numpy(), marker="o", color=colour(policy), markersize=4 if scattered else 6,
-                            linestyle="none" if scattered else STRATEGY_LINES.get(strategy, "-."), label=f"{policy} ({strategy})",
-                            fillstyle="none" if strategy == "none" else "full")
-                ax.set(xlabel=_axis(param), ylabel=KEY_METRICS[metric], title=KEY_METRICS[metric].split(" (")[0])
+                    ax.plot(
+                        medians.index,
+                        medians.to_numpy(),
+                        marker="o",
+                        color=colour(policy),
+                        markersize=4 if scattered else 6,
+                        linestyle="none" if scattered else STRATEGY_LINES.get(strategy, "-."),
+                        label=f"{policy} ({strategy})",
+                        fillstyle="none" if strategy == "none" else "full",
+                    )
+                ax.set(
+                    xlabel=_axis(param), ylabel=KEY_METRICS[metric], title=KEY_METRICS[metric].split(" (")[0]
+                )
                 ax.grid(alpha=0.3)
             axes[0].legend(fontsize=8)
-            fig.suptitle(f"{robot} {scenario}: metrics vs {param.removeprefix('param:')} (median over the other sweep keys)")
+            fig.suptitle(
+                f"{robot} {scenario}: metrics vs {param.removeprefix('param:')} (median over the other sweep keys)"
+            )
             stem = f"sweep_{scenario}_{param.removeprefix('param:').replace('.', '_')}"
             paths += _save(fig, out, stem if robot == DEFAULT_ROBOT else f"{stem}_{robot}")
     return paths
@@ -71,7 +84,13 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
 
 def _axis(param: str) -> str:
     key = param.removeprefix("param:")
-    units = {"initial.height": "m", "push.force": "N", "push.direction": "deg", "push.duration": "s", "friction": "-"}
+    units = {
+        "initial.height": "m",
+        "push.force": "N",
+        "push.direction": "deg",
+        "push.duration": "s",
+        "friction": "-",
+    }
     return f"{key} ({units.get(key, '')})"
 
 

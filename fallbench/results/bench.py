@@ -27,18 +27,19 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import mujoco
 import numpy as np
 from joblib import Parallel, delayed
 
-from fallbench.registry import load, simulate_named
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.results.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
 from fallbench.dynamics.dense_qp import QP_SOLVERS
+from fallbench.registry import load, simulate_named
+from fallbench.results.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
 from fallbench.scenario import Scenario, ScenarioPoint
 from fallbench.sim.servo import ServoCommand, write_servo
 from fallbench.sim.world import build_world, initial_state
@@ -46,8 +47,12 @@ from fallbench.sim.world import build_world, initial_state
 POLICIES = ("stiff", "oneshot", "zero", "adaptive_qp")
 FIXED = ("stiff", "oneshot", "zero")
 # the reshaping QP's bench fall: a front push; reshaping runs from fall detection to the first impact (~1.4 s)
-RESHAPE_PUSH = Scenario(name="bench_reshape_push", duration=1.45, pre_impact=["reshape"],
-                        push={"force": 370.0, "duration": 0.1, "start": 0.1, "direction": 0.0})
+RESHAPE_PUSH = Scenario(
+    name="bench_reshape_push",
+    duration=1.45,
+    pre_impact=["reshape"],
+    push={"force": 370.0, "duration": 0.1, "start": 0.1, "direction": 0.0},
+)
 
 
 def _suffix(solver: str) -> str:
@@ -57,17 +62,36 @@ def _suffix(solver: str) -> str:
 
 def with_qp_solver(scenario: Scenario, solver: str) -> Scenario:
     """The scenario with both QPs (adaptive_qp, reshape) on `solver`."""
-    params = {name: {**scenario.policy_params.get(name, {}), "solver": solver} for name in ("adaptive_qp", "reshape")}
+    params = {
+        name: {**scenario.policy_params.get(name, {}), "solver": solver}
+        for name in ("adaptive_qp", "reshape")
+    }
     return scenario.model_copy(update={"policy_params": {**scenario.policy_params, **params}})
 
 
 # target name -> (figure key, comparison, limit), from the issue that set them
 TARGETS: dict[str, tuple[str, str, float]] = {
     **{f"{p} episode / pure physics": (f"episode_ratio_{p}", "<=", 1.15) for p in FIXED},
-    **{f"adaptive_qp ({solver}) episode / pure physics": (f"episode_ratio_adaptive_qp{_suffix(solver)}", "<=", 2.0) for solver in QP_SOLVERS},
-    **{f"adaptive_qp ({solver}) QP step median (ms)": (f"qp_step_ms_median{_suffix(solver)}", "<=", 0.3) for solver in QP_SOLVERS},
-    **{f"adaptive_qp ({solver}) QP step p99 (ms)": (f"qp_step_ms_p99{_suffix(solver)}", "<=", 1.0) for solver in QP_SOLVERS},
-    **{f"reshape ({solver}) QP step median (ms)": (f"reshape_step_ms_median{_suffix(solver)}", "<=", 1.0) for solver in QP_SOLVERS},
+    **{
+        f"adaptive_qp ({solver}) episode / pure physics": (
+            f"episode_ratio_adaptive_qp{_suffix(solver)}",
+            "<=",
+            2.0,
+        )
+        for solver in QP_SOLVERS
+    },
+    **{
+        f"adaptive_qp ({solver}) QP step median (ms)": (f"qp_step_ms_median{_suffix(solver)}", "<=", 0.3)
+        for solver in QP_SOLVERS
+    },
+    **{
+        f"adaptive_qp ({solver}) QP step p99 (ms)": (f"qp_step_ms_p99{_suffix(solver)}", "<=", 1.0)
+        for solver in QP_SOLVERS
+    },
+    **{
+        f"reshape ({solver}) QP step median (ms)": (f"reshape_step_ms_median{_suffix(solver)}", "<=", 1.0)
+        for solver in QP_SOLVERS
+    },
     "2-job / 1-job sweep throughput": ("sweep_speedup", ">=", 1.8),
     "worker peak RSS (MB)": ("worker_peak_rss_mb", "<=", 500.0),
     "20-run sweep, 2 jobs vs 1, whole command": ("e2e_speedup_20", ">=", 1.6),
@@ -77,11 +101,19 @@ TARGETS: dict[str, tuple[str, str, float]] = {
     "store: grouped query (s)": ("store_query_s_median", "<=", 1.0),
 }
 # a QP target's figure -> the same figure of the solver's part alone (a floor that no work outside the solver lowers)
-SOLVER_SHARE = {f"{step}{_suffix(solver)}": f"{solve}{_suffix(solver)}" for solver in QP_SOLVERS for step, solve in
-                (("qp_step_ms_median", "qp_solve_ms_median"), ("qp_step_ms_p99", "qp_solve_ms_p99"),
-                 ("reshape_step_ms_median", "reshape_solve_ms_median"))}
-GROUPED_QUERY = ("SELECT scenario, pre_impact, policy, count(*) AS runs, median(imu_peak_z) AS imu_peak_z, "
-                 "min(knee_limit_margin) AS knee_limit_margin FROM runs GROUP BY ALL ORDER BY ALL")
+SOLVER_SHARE = {
+    f"{step}{_suffix(solver)}": f"{solve}{_suffix(solver)}"
+    for solver in QP_SOLVERS
+    for step, solve in (
+        ("qp_step_ms_median", "qp_solve_ms_median"),
+        ("qp_step_ms_p99", "qp_solve_ms_p99"),
+        ("reshape_step_ms_median", "reshape_solve_ms_median"),
+    )
+}
+GROUPED_QUERY = (
+    "SELECT scenario, pre_impact, policy, count(*) AS runs, median(imu_peak_z) AS imu_peak_z, "
+    "min(knee_limit_margin) AS knee_limit_margin FROM runs GROUP BY ALL ORDER BY ALL"
+)
 
 
 def _median_time(function: Callable[[], Any], repeats: int) -> float:
@@ -97,15 +129,18 @@ def pure_physics_s(point: ScenarioPoint, steps: int) -> float:
     """Wall time of `steps` mj_step calls on the scenario's compiled model, default servo held."""
     world = build_world(point.scenario)
     data = initial_state(world, point.scenario)
-    write_servo(world.model, data, ServoCommand(world.default_kp, world.default_kd, data.ctrl.copy(), 0 * data.ctrl))
+    write_servo(
+        world.model, data, ServoCommand(world.default_kp, world.default_kd, data.ctrl.copy(), 0 * data.ctrl)
+    )
     started = time.perf_counter()
     for _ in range(steps):
         mujoco.mj_step(world.model, data)
     return time.perf_counter() - started
 
 
-def policy_figures(scenario: Scenario, policy: str, pre_impact: str, repeats: int, physics_s: float,
-                   suffix: str = "") -> dict[str, float]:
+def policy_figures(
+    scenario: Scenario, policy: str, pre_impact: str, repeats: int, physics_s: float, suffix: str = ""
+) -> dict[str, float]:
     """Episode and controller figures of one policy; keys end in `suffix` (a QP solver variant). One
     episode first, not counted: a process's first QP step loads the compiled kernels (~0.1 s, a
     start-up cost, measured by the whole-command figures), which the median of two would halve in."""
@@ -129,8 +164,14 @@ def policy_figures(scenario: Scenario, policy: str, pre_impact: str, repeats: in
     }
     if policy == "adaptive_qp":
         stats = compute_metrics(recordings[-1])
-        for key in ("qp_model_ms_median", "qp_build_ms_median", "qp_solve_ms_median", "qp_solve_ms_p99", "qp_step_ms_median",
-                    "qp_step_ms_p99"):
+        for key in (
+            "qp_model_ms_median",
+            "qp_build_ms_median",
+            "qp_solve_ms_median",
+            "qp_solve_ms_p99",
+            "qp_step_ms_median",
+            "qp_step_ms_p99",
+        ):
             figures[key + suffix] = float(stats[key])
     return figures
 
@@ -140,16 +181,30 @@ def reshape_figures(repeats: int) -> dict[str, float]:
     median of those over `repeats` episodes) with each solver."""
     figures = {}
     for solver in QP_SOLVERS:
-        simulate_named(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape")  # warm-up, as in policy_figures
+        simulate_named(
+            with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape"
+        )  # warm-up, as in policy_figures
         steps = []
         for _ in range(repeats):
             stats = compute_metrics(simulate_named(with_qp_solver(RESHAPE_PUSH, solver), "stiff", "reshape"))
-            steps.append((stats["preimpact_qp_ms_median"], stats["preimpact_qp_ms_p99"], stats["preimpact_qp_solve_ms_median"],
-                          stats["preimpact_qp_solve_ms_p99"], stats["preimpact_qp_steps"]))
+            steps.append(
+                (
+                    stats["preimpact_qp_ms_median"],
+                    stats["preimpact_qp_ms_p99"],
+                    stats["preimpact_qp_solve_ms_median"],
+                    stats["preimpact_qp_solve_ms_p99"],
+                    stats["preimpact_qp_steps"],
+                )
+            )
         median, p99, solve_median, solve_p99, count = (statistics.median(column) for column in zip(*steps))
         x = _suffix(solver)
-        figures |= {f"reshape_step_ms_median{x}": median, f"reshape_step_ms_p99{x}": p99, f"reshape_solve_ms_median{x}": solve_median,
-                    f"reshape_solve_ms_p99{x}": solve_p99, f"reshape_steps{x}": count}
+        figures |= {
+            f"reshape_step_ms_median{x}": median,
+            f"reshape_step_ms_p99{x}": p99,
+            f"reshape_solve_ms_median{x}": solve_median,
+            f"reshape_solve_ms_p99{x}": solve_p99,
+            f"reshape_steps{x}": count,
+        }
     return figures
 
 
@@ -167,7 +222,9 @@ def sweep_figures(specs: list[RunSpec]) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as folder:
         for jobs in (1, 2):
             results = Path(folder) / f"jobs{jobs}"
-            parallel = Parallel(n_jobs=jobs, backend="loky" if jobs > 1 else "sequential", return_as="generator_unordered")
+            parallel = Parallel(
+                n_jobs=jobs, backend="loky" if jobs > 1 else "sequential", return_as="generator_unordered"
+            )
             if jobs > 1:
                 started = time.perf_counter()
                 warm = [replace(specs[0], point=_with_seed(specs[0].point, 10_000 + i)) for i in range(jobs)]
@@ -179,7 +236,10 @@ def sweep_figures(specs: list[RunSpec]) -> dict[str, float]:
                 if jobs > 1:
                     peaks[pid] = max(peaks.get(pid, 0.0), peak)
             figures[f"sweep_runs_per_s_{jobs}job"] = len(specs) / (time.perf_counter() - started)
-        stored = [sum(f.stat().st_size for f in run.iterdir()) for run in (Path(folder) / "jobs1" / "runs").iterdir()]
+        stored = [
+            sum(f.stat().st_size for f in run.iterdir())
+            for run in (Path(folder) / "jobs1" / "runs").iterdir()
+        ]
         figures["bytes_per_run"] = float(np.mean(stored))
     figures["sweep_speedup"] = figures["sweep_runs_per_s_2job"] / figures["sweep_runs_per_s_1job"]
     figures["worker_peak_rss_mb"] = max(peaks.values())
@@ -189,7 +249,10 @@ def sweep_figures(specs: list[RunSpec]) -> dict[str, float]:
 
 def sweep_specs(point: ScenarioPoint, runs: int, pre_impact: str) -> list[RunSpec]:
     """`runs` distinct runs of the point (seeds 0..), cycling through the four policies."""
-    return [RunSpec(_with_seed(point, i // len(POLICIES)), POLICIES[i % len(POLICIES)], pre_impact) for i in range(runs)]
+    return [
+        RunSpec(_with_seed(point, i // len(POLICIES)), POLICIES[i % len(POLICIES)], pre_impact)
+        for i in range(runs)
+    ]
 
 
 def _with_seed(point: ScenarioPoint, seed: int) -> ScenarioPoint:
@@ -205,13 +268,19 @@ def _sweep_file(runs: int, folder: Path) -> Path:
 
     shipped = Path(__file__).resolve().parents[1] / "scenarios"
     default = Scenario.model_fields["robot"].default  # the issue's sweep: one robot
-    drops, pushes = ([p for p in load([shipped / name]) if p.scenario.robot == default]
-                     for name in ("drop.yaml", "push.yaml"))
-    mixed = [p for pair in zip(drops, pushes) for p in pair] + drops[len(pushes):] + pushes[len(drops):]
+    drops, pushes = (
+        [p for p in load([shipped / name]) if p.scenario.robot == default]
+        for name in ("drop.yaml", "push.yaml")
+    )
+    mixed = [p for pair in zip(drops, pushes) for p in pair] + drops[len(pushes) :] + pushes[len(drops) :]
     if runs // 4 > len(mixed):
-        raise ValueError(f"--e2e-runs {runs}: the shipped drops and pushes give at most {4 * len(mixed)} runs")
-    documents = [p.scenario.model_dump(mode="json", exclude_defaults=True) | {"name": f"{p.scenario.name}_{i}"}
-                 for i, p in enumerate(mixed[: runs // 4])]
+        raise ValueError(
+            f"--e2e-runs {runs}: the shipped drops and pushes give at most {4 * len(mixed)} runs"
+        )
+    documents = [
+        p.scenario.model_dump(mode="json", exclude_defaults=True) | {"name": f"{p.scenario.name}_{i}"}
+        for i, p in enumerate(mixed[: runs // 4])
+    ]
     path = folder / f"sweep{runs}.yaml"
     with open(path, "w") as handle:
         YAML(typ="safe", pure=True).dump_all(documents, handle)
@@ -224,8 +293,13 @@ def _command_s(command: list[str]) -> float:
     return time.perf_counter() - started
 
 
-def command_figures(point: ScenarioPoint, runs_list: list[int], repeats: int, sweep_repeats: int,
-                    progress: Callable[[str], None]) -> dict[str, float]:
+def command_figures(
+    point: ScenarioPoint,
+    runs_list: list[int],
+    repeats: int,
+    sweep_repeats: int,
+    progress: Callable[[str], None],
+) -> dict[str, float]:
     """Whole commands in fresh interpreters: sweeps with 1 and 2 jobs (in turn, `sweep_repeats`
     pairs, medians), `run one` on the point with `stiff`, and the import time of `run one`'s modules."""
 
@@ -238,22 +312,60 @@ def command_figures(point: ScenarioPoint, runs_list: list[int], repeats: int, sw
             times: dict[int, list[float]] = {1: [], 2: []}
             for repeat in range(sweep_repeats):
                 for jobs in (1, 2):
-                    progress(f"whole command: {runs}-run sweep, {jobs} job(s), pair {repeat + 1}/{sweep_repeats}")
+                    progress(
+                        f"whole command: {runs}-run sweep, {jobs} job(s), pair {repeat + 1}/{sweep_repeats}"
+                    )
                     results = Path(folder) / f"r{runs}-{jobs}-{repeat}"
-                    times[jobs].append(_command_s(cli + ["run", "sweep", str(path), "--jobs", str(jobs), "--pre-impact", "none",
-                                                         "--results", str(results), "--reports", str(results / "rep"), "--no-progress"]))
+                    times[jobs].append(
+                        _command_s(
+                            cli
+                            + [
+                                "run",
+                                "sweep",
+                                str(path),
+                                "--jobs",
+                                str(jobs),
+                                "--pre-impact",
+                                "none",
+                                "--results",
+                                str(results),
+                                "--reports",
+                                str(results / "rep"),
+                                "--no-progress",
+                            ]
+                        )
+                    )
             for jobs in (1, 2):
                 figures[f"e2e_sweep_s_{jobs}job_{runs}"] = statistics.median(times[jobs])
             figures[f"e2e_speedup_{runs}"] = statistics.median(a / b for a, b in zip(times[1], times[2]))
         progress("whole command: run one")
         figures["run_one_s"] = statistics.median(
-            _command_s(cli + ["run", "one", point.source, "--point", str(index), "--policy", "stiff", "--results", str(Path(folder) / f"one{i}")])
-            for i in range(repeats))
-    probe = ("import time; t = time.perf_counter(); import fallbench.cli, fallbench.results.runner, fallbench.sim.episode, "
-             "fallbench.analysis.metrics; print(time.perf_counter() - t)")
+            _command_s(
+                cli
+                + [
+                    "run",
+                    "one",
+                    point.source,
+                    "--point",
+                    str(index),
+                    "--policy",
+                    "stiff",
+                    "--results",
+                    str(Path(folder) / f"one{i}"),
+                ]
+            )
+            for i in range(repeats)
+        )
+    probe = (
+        "import time; t = time.perf_counter(); import fallbench.cli, fallbench.results.runner, fallbench.sim.episode, "
+        "fallbench.analysis.metrics; print(time.perf_counter() - t)"
+    )
     figures["import_s"] = statistics.median(
-        float(subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True).stdout)
-        for _ in range(repeats))
+        float(
+            subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True).stdout
+        )
+        for _ in range(repeats)
+    )
     return figures
 
 
@@ -272,13 +384,20 @@ def _synthetic_rows(template: dict[str, Any], first: int, count: int, seed: int)
             columns[key] = value * (1 + 0.1 * rng.standard_normal(count))
         else:
             columns[key] = pa.array([value] * count)
-    columns |= {"run_id": [f"{i:016x}" for i in index], "scenario": [f"scenario_{i % 20}" for i in index],
-                "policy": [POLICIES[i % 4] for i in index], "pre_impact": [("none", "reshape")[i // 4 % 2] for i in index],
-                "point": [f"scenario_{i % 20}#s{i}" for i in index], "seed": index}
+    columns |= {
+        "run_id": [f"{i:016x}" for i in index],
+        "scenario": [f"scenario_{i % 20}" for i in index],
+        "policy": [POLICIES[i % 4] for i in index],
+        "pre_impact": [("none", "reshape")[i // 4 % 2] for i in index],
+        "point": [f"scenario_{i % 20}#s{i}" for i in index],
+        "seed": index,
+    }
     return pa.table(columns)
 
 
-def store_figures(outcome: Outcome, runs: int, repeats: int, progress: Callable[[str], None]) -> dict[str, float]:
+def store_figures(
+    outcome: Outcome, runs: int, repeats: int, progress: Callable[[str], None]
+) -> dict[str, float]:
     """The results store at `runs` synthetic runs (a run folder each, as in a real store): adding
     one real run (its folder, then `consolidate`) at least 8 times, so the first tier merges once;
     a grouped SQL query; a read filtered by scenario and policy (pushed down)."""
@@ -307,15 +426,23 @@ def store_figures(outcome: Outcome, runs: int, repeats: int, progress: Callable[
         figures["store_add_one_s_median"], figures["store_add_one_s_max"] = statistics.median(adds), max(adds)
         figures["store_query_s_median"] = _median_time(lambda: store.query(results, GROUPED_QUERY), repeats)
         figures["store_filtered_read_s_median"] = _median_time(
-            lambda: store.load_metrics(results, scenario=["scenario_3"], policy=["stiff"]), repeats)
+            lambda: store.load_metrics(results, scenario=["scenario_3"], policy=["stiff"]), repeats
+        )
         figures["store_parts"] = len(list((results / store.TABLE).glob("part-*.parquet")))
         figures["store_table_mb"] = sum(p.stat().st_size for p in (results / store.TABLE).iterdir()) / 1e6
     return figures
 
 
-def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, sweep_runs: int = 48,
-              progress: Callable[[str], None] = lambda message: None, store_runs: int = 100_000,
-              e2e_runs: tuple[int, ...] = (20, 100), e2e_repeats: int = 1) -> dict[str, Any]:
+def run_bench(
+    point: ScenarioPoint,
+    pre_impact: str = "none",
+    repeats: int = 5,
+    sweep_runs: int = 48,
+    progress: Callable[[str], None] = lambda message: None,
+    store_runs: int = 100_000,
+    e2e_runs: tuple[int, ...] = (20, 100),
+    e2e_repeats: int = 1,
+) -> dict[str, Any]:
     """Every figure as one flat dict (keys documented in the README); `store_runs` 0 or an empty
     `e2e_runs` leaves those parts out."""
     figures: dict[str, Any] = {"scenario": point.label, "pre_impact": pre_impact, "cpu_count": os.cpu_count()}
@@ -331,16 +458,26 @@ def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, 
         figures.update(policy_figures(point.scenario, policy, pre_impact, repeats, physics))
     for solver in QP_SOLVERS:
         progress(f"episode: adaptive_qp ({solver})")
-        figures.update(policy_figures(with_qp_solver(point.scenario, solver), "adaptive_qp", pre_impact, max(2, repeats // 2), physics,
-                                      _suffix(solver)))
+        figures.update(
+            policy_figures(
+                with_qp_solver(point.scenario, solver),
+                "adaptive_qp",
+                pre_impact,
+                max(2, repeats // 2),
+                physics,
+                _suffix(solver),
+            )
+        )
     progress("reshaping QP step")
     figures.update(reshape_figures(max(2, repeats // 2)))
     progress(f"sweep: {sweep_runs} runs with 1 and 2 jobs")
     figures.update(sweep_figures(sweep_specs(point, sweep_runs, pre_impact)))
     if store_runs:
-        figures.update(store_figures(simulate(RunSpec(point, "stiff", pre_impact)), store_runs, repeats, progress))
+        figures.update(
+            store_figures(simulate(RunSpec(point, "stiff", pre_impact)), store_runs, repeats, progress)
+        )
     figures.update(command_figures(point, list(e2e_runs), repeats, e2e_repeats, progress))
-    for name, (key, comparison, limit) in TARGETS.items():
+    for key, comparison, limit in TARGETS.values():
         if key in figures:
             value = figures[key]
             figures[f"target_met:{key}"] = bool(value <= limit if comparison == "<=" else value >= limit)
@@ -348,52 +485,75 @@ def run_bench(point: ScenarioPoint, pre_impact: str = "none", repeats: int = 5, 
 
 
 def markdown(figures: dict[str, Any]) -> str:
-    lines = ["# fallbench bench", "",
-             f"Scenario `{figures['scenario']}`, pre-impact `{figures['pre_impact']}`, {figures['cpu_count']} CPUs. "
-             f"Pure physics: {figures['physics_steps']} steps in {figures['physics_s'] * 1e3:.1f} ms "
-             f"= {figures['physics_steps_per_s']:,.0f} steps/s.", "",
-             "| policy | episode (ms) | / pure physics | / its own physics | controller per step median (ms) | p99 (ms) |",
-             "|---|---|---|---|---|---|"]
-    rows = [(p, p) for p in FIXED] + [(f"adaptive_qp ({solver})", "adaptive_qp" + _suffix(solver)) for solver in QP_SOLVERS]
+    lines = [
+        "# fallbench bench",
+        "",
+        f"Scenario `{figures['scenario']}`, pre-impact `{figures['pre_impact']}`, {figures['cpu_count']} CPUs. "
+        f"Pure physics: {figures['physics_steps']} steps in {figures['physics_s'] * 1e3:.1f} ms "
+        f"= {figures['physics_steps_per_s']:,.0f} steps/s.",
+        "",
+        "| policy | episode (ms) | / pure physics | / its own physics | controller per step median (ms) | p99 (ms) |",
+        "|---|---|---|---|---|---|",
+    ]
+    rows = [(p, p) for p in FIXED] + [
+        (f"adaptive_qp ({solver})", "adaptive_qp" + _suffix(solver)) for solver in QP_SOLVERS
+    ]
     for label, p in rows:
-        lines.append(f"| {label} | {figures[f'episode_s_{p}'] * 1e3:.1f} | {figures[f'episode_ratio_{p}']:.2f} | "
-                     f"{figures[f'episode_ratio_own_physics_{p}']:.2f} | {figures[f'controller_ms_median_{p}']:.3f} | "
-                     f"{figures[f'controller_ms_p99_{p}']:.3f} |")
+        lines.append(
+            f"| {label} | {figures[f'episode_s_{p}'] * 1e3:.1f} | {figures[f'episode_ratio_{p}']:.2f} | "
+            f"{figures[f'episode_ratio_own_physics_{p}']:.2f} | {figures[f'controller_ms_median_{p}']:.3f} | "
+            f"{figures[f'controller_ms_p99_{p}']:.3f} |"
+        )
     lines.append("")
     for solver in QP_SOLVERS:
         x = _suffix(solver)
-        lines += [f"adaptive_qp per QP step with {solver} (medians): model {figures['qp_model_ms_median' + x]:.3f} ms, build "
-                  f"{figures['qp_build_ms_median' + x]:.3f} ms, solve {figures['qp_solve_ms_median' + x]:.3f} ms; whole step median "
-                  f"{figures['qp_step_ms_median' + x]:.3f} ms, p99 {figures['qp_step_ms_p99' + x]:.3f} ms; the solver alone: p99 "
-                  f"{figures['qp_solve_ms_p99' + x]:.3f} ms. Reshaping QP step with {solver} (`{RESHAPE_PUSH.name}`, "
-                  f"{figures['reshape_steps' + x]:.0f} steps): median {figures['reshape_step_ms_median' + x]:.3f} ms, p99 "
-                  f"{figures['reshape_step_ms_p99' + x]:.3f} ms; the solver alone: median {figures['reshape_solve_ms_median' + x]:.3f} ms, "
-                  f"p99 {figures['reshape_solve_ms_p99' + x]:.3f} ms.", ""]
+        lines += [
+            f"adaptive_qp per QP step with {solver} (medians): model {figures['qp_model_ms_median' + x]:.3f} ms, build "
+            f"{figures['qp_build_ms_median' + x]:.3f} ms, solve {figures['qp_solve_ms_median' + x]:.3f} ms; whole step median "
+            f"{figures['qp_step_ms_median' + x]:.3f} ms, p99 {figures['qp_step_ms_p99' + x]:.3f} ms; the solver alone: p99 "
+            f"{figures['qp_solve_ms_p99' + x]:.3f} ms. Reshaping QP step with {solver} (`{RESHAPE_PUSH.name}`, "
+            f"{figures['reshape_steps' + x]:.0f} steps): median {figures['reshape_step_ms_median' + x]:.3f} ms, p99 "
+            f"{figures['reshape_step_ms_p99' + x]:.3f} ms; the solver alone: median {figures['reshape_solve_ms_median' + x]:.3f} ms, "
+            f"p99 {figures['reshape_solve_ms_p99' + x]:.3f} ms.",
+            "",
+        ]
     lines += [
-              f"Sweep of {figures['sweep_runs']} runs (4 policies): 1 job {figures['sweep_runs_per_s_1job']:.2f} runs/s, "
-              f"2 jobs {figures['sweep_runs_per_s_2job']:.2f} runs/s, speedup {figures['sweep_speedup']:.2f}x "
-              f"(worker start and model compile {figures['worker_warmup_s']:.1f} s, not counted). Peak RSS: workers "
-              f"{figures['worker_peak_rss_mb']:.0f} MB, main process {figures['main_peak_rss_mb']:.0f} MB. "
-              f"Stored per run: {figures['bytes_per_run'] / 1024:.0f} KiB.", "",
-              ]
+        f"Sweep of {figures['sweep_runs']} runs (4 policies): 1 job {figures['sweep_runs_per_s_1job']:.2f} runs/s, "
+        f"2 jobs {figures['sweep_runs_per_s_2job']:.2f} runs/s, speedup {figures['sweep_speedup']:.2f}x "
+        f"(worker start and model compile {figures['worker_warmup_s']:.1f} s, not counted). Peak RSS: workers "
+        f"{figures['worker_peak_rss_mb']:.0f} MB, main process {figures['main_peak_rss_mb']:.0f} MB. "
+        f"Stored per run: {figures['bytes_per_run'] / 1024:.0f} KiB.",
+        "",
+    ]
     for runs in sorted(int(k.rsplit("_", 1)[1]) for k in figures if k.startswith("e2e_speedup_")):
-        lines += [f"Whole command, {runs}-run sweep of shipped drops and pushes (4 policies, no reshaping), start-up "
-                  f"included: 1 job {figures[f'e2e_sweep_s_1job_{runs}']:.2f} s, 2 jobs {figures[f'e2e_sweep_s_2job_{runs}']:.2f} s, "
-                  f"speedup {figures[f'e2e_speedup_{runs}']:.2f}x.", ""]
+        lines += [
+            f"Whole command, {runs}-run sweep of shipped drops and pushes (4 policies, no reshaping), start-up "
+            f"included: 1 job {figures[f'e2e_sweep_s_1job_{runs}']:.2f} s, 2 jobs {figures[f'e2e_sweep_s_2job_{runs}']:.2f} s, "
+            f"speedup {figures[f'e2e_speedup_{runs}']:.2f}x.",
+            "",
+        ]
     if "run_one_s" in figures:
-        lines += [f"`fallbench run one` (stiff, whole command): {figures['run_one_s']:.2f} s, of which imports "
-                  f"{figures['import_s']:.2f} s.", ""]
+        lines += [
+            f"`fallbench run one` (stiff, whole command): {figures['run_one_s']:.2f} s, of which imports "
+            f"{figures['import_s']:.2f} s.",
+            "",
+        ]
     if "store_runs" in figures:
-        lines += [f"Results store of {figures['store_runs']:,} runs ({figures['store_parts']} parts, "
-                  f"{figures['store_table_mb']:.1f} MB; built in {figures['store_build_s']:.1f} s): adding one run "
-                  f"median {figures['store_add_one_s_median']:.3f} s, worst {figures['store_add_one_s_max']:.3f} s; "
-                  f"grouped query {figures['store_query_s_median']:.3f} s; filtered read (one scenario, one policy) "
-                  f"{figures['store_filtered_read_s_median']:.3f} s.", ""]
+        lines += [
+            f"Results store of {figures['store_runs']:,} runs ({figures['store_parts']} parts, "
+            f"{figures['store_table_mb']:.1f} MB; built in {figures['store_build_s']:.1f} s): adding one run "
+            f"median {figures['store_add_one_s_median']:.3f} s, worst {figures['store_add_one_s_max']:.3f} s; "
+            f"grouped query {figures['store_query_s_median']:.3f} s; filtered read (one scenario, one policy) "
+            f"{figures['store_filtered_read_s_median']:.3f} s.",
+            "",
+        ]
     lines += ["| target | measured | of which the QP solver alone | limit | met |", "|---|---|---|---|---|"]
     for name, (key, comparison, limit) in TARGETS.items():
         share = f"{figures[SOLVER_SHARE[key]]:.3g}" if SOLVER_SHARE.get(key) in figures else ""
         if key in figures:
-            lines.append(f"| {name} | {figures[key]:.3g} | {share} | {comparison} {limit:g} | {'yes' if figures[f'target_met:{key}'] else 'NO'} |")
+            lines.append(
+                f"| {name} | {figures[key]:.3g} | {share} | {comparison} {limit:g} | {'yes' if figures[f'target_met:{key}'] else 'NO'} |"
+            )
         else:
             lines.append(f"| {name} | not measured | | {comparison} {limit:g} | - |")
     return "\n".join(lines) + "\n"

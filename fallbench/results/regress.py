@@ -42,7 +42,12 @@ class Regression:
 
     @property
     def change(self) -> str:
-        if isinstance(self.baseline, float) and isinstance(self.now, float) and math.isfinite(self.baseline) and math.isfinite(self.now):
+        if (
+            isinstance(self.baseline, float)
+            and isinstance(self.now, float)
+            and math.isfinite(self.baseline)
+            and math.isfinite(self.now)
+        ):
             return f"{self.now - self.baseline:+.4g}"
         return ""
 
@@ -117,10 +122,14 @@ def read_baseline(path: Path, tolerances: dict[str, Tolerance] | None = None) ->
     required = CASE + ["status"] + list(tolerances or [])
     missing = [c for c in required if c not in raw.columns]
     if missing:
-        raise BaselineError(f"{path}:1: missing column(s) {', '.join(missing)} (rebuild it with `fallbench check --update`)")
+        raise BaselineError(
+            f"{path}:1: missing column(s) {', '.join(missing)} (rebuild it with `fallbench check --update`)"
+        )
     frame = raw.copy()
     for metric in tolerances or [c for c in raw.columns if c not in CASE + ["status", "error"]]:
-        frame[metric] = [_baseline_cell(path, line, raw.iloc[line - 2], metric) for line in range(2, len(raw) + 2)]
+        frame[metric] = [
+            _baseline_cell(path, line, raw.iloc[line - 2], metric) for line in range(2, len(raw) + 2)
+        ]
     return frame.astype({"error": str}) if "error" in frame.columns else frame
 
 
@@ -135,6 +144,8 @@ def _baseline_cell(path: Path, line: int, row: pd.Series, metric: str) -> float:
         except ValueError:
             value = float("nan")
     if not math.isfinite(value):
-        raise BaselineError(f"{path}:{line}: {_key(row)}: {metric}: {text!r} is not a finite number "
-                            "(leave the cell empty if the metric does not apply to this case)")
+        raise BaselineError(
+            f"{path}:{line}: {_key(row)}: {metric}: {text!r} is not a finite number "
+            "(leave the cell empty if the metric does not apply to this case)"
+        )
     return value

@@ -15,19 +15,17 @@ from __future__ import annotations
 
 import hashlib
 import importlib
-import time
-import traceback
-from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass
-from functools import cache
-from importlib.metadata import version
-from pathlib import Path
-from typing import Any, Iterator
-
 import multiprocessing
 import signal
-from functools import partial
-from typing import TYPE_CHECKING
+import time
+import traceback
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
+from functools import cache, partial
+from importlib.metadata import version
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -40,6 +38,7 @@ from fallbench.scenario import ScenarioPoint
 if TYPE_CHECKING:  # pandas and joblib load only when a run or a parallel sweep needs them (start-up time)
     import pandas as pd
     from joblib import Parallel
+
 
 @dataclass(frozen=True)
 class RunSpec:
@@ -78,21 +77,38 @@ def versions(robot: str) -> dict[str, str]:
 @cache
 def _versions(robot: str) -> tuple[tuple[str, str], ...]:
     """Installed versions never change within a process; reading package metadata costs ~1.5 ms."""
-    return (("fallbench", fallbench.__version__), ("code", code_fingerprint()), ("mujoco", mujoco.__version__),
-            ("pin", version("pin")), ("proxsuite", version("proxsuite")), ("robot", get_robot(robot).version))
+    return (
+        ("fallbench", fallbench.__version__),
+        ("code", code_fingerprint()),
+        ("mujoco", mujoco.__version__),
+        ("pin", version("pin")),
+        ("proxsuite", version("proxsuite")),
+        ("robot", get_robot(robot).version),
+    )
 
 
 def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[str]) -> list[RunSpec]:
     """Every (point, strategy, policy); a scenario's own `pre_impact` list replaces `pre_impact`."""
-    return [RunSpec(p, policy, pre) for p in points for pre in (p.scenario.pre_impact or pre_impact) for policy in policies]
+    return [
+        RunSpec(p, policy, pre)
+        for p in points
+        for pre in (p.scenario.pre_impact or pre_impact)
+        for policy in policies
+    ]
 
 
 def _identity(spec: RunSpec) -> dict[str, Any]:
     scenario = spec.point.scenario
     row: dict[str, Any] = {
-        "run_id": spec.run_id, "schema_version": store.SCHEMA_VERSION, "robot": scenario.robot, "scenario": scenario.name,
-        "point": spec.point.label, "source": spec.point.source, "policy": spec.policy,
-        "pre_impact": spec.pre_impact, "seed": scenario.seed,
+        "run_id": spec.run_id,
+        "schema_version": store.SCHEMA_VERSION,
+        "robot": scenario.robot,
+        "scenario": scenario.name,
+        "point": spec.point.label,
+        "source": spec.point.source,
+        "policy": spec.policy,
+        "pre_impact": spec.pre_impact,
+        "seed": scenario.seed,
     }
     row.update({f"param:{k}": v for k, v in spec.point.swept.items()})
     row.update({f"version:{k}": v for k, v in versions(scenario.robot).items()})
@@ -108,8 +124,8 @@ class Outcome:
 
 def simulate(spec: RunSpec) -> Outcome:
     """Run one case and compute its metrics. Never raises for a failing simulation."""
-    from fallbench.registry import simulate_named
     from fallbench.analysis.metrics import compute_metrics, timeseries
+    from fallbench.registry import simulate_named
 
     started = time.perf_counter()
     row = _identity(spec)
@@ -130,7 +146,13 @@ def simulate(spec: RunSpec) -> Outcome:
 
 def store_outcome(results: Path, outcome: Outcome) -> dict[str, Any]:
     spec = outcome.spec
-    store.write_run(results, outcome.row["run_id"], spec.resolved() | {"point": spec.point.label}, outcome.row, outcome.series)
+    store.write_run(
+        results,
+        outcome.row["run_id"],
+        spec.resolved() | {"point": spec.point.label},
+        outcome.row,
+        outcome.series,
+    )
     return outcome.row
 
 
@@ -187,14 +209,17 @@ def parallel_backend(backend: str, jobs: int, scheduler: str | None = None) -> I
         if scheduler:
             stack.enter_context(Client(scheduler))
         else:
-            cluster = stack.enter_context(LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
-                                                       dashboard_address=None))
+            cluster = stack.enter_context(
+                LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
+            )
             stack.enter_context(Client(cluster))
         stack.enter_context(parallel_config(backend="dask", wait_for_workers_timeout=60))
         yield Parallel(n_jobs=-1, return_as="generator_unordered")
 
 
-def stored_rows(todo: list[RunSpec], results: Path, backend: str, jobs: int, scheduler: str | None = None) -> Iterator[dict[str, Any]]:
+def stored_rows(
+    todo: list[RunSpec], results: Path, backend: str, jobs: int, scheduler: str | None = None
+) -> Iterator[dict[str, Any]]:
     """Run and store every spec of `todo` (in this order where the backend keeps it); yield each
     run's metric row as it is stored."""
     if backend == "sequential":
@@ -203,7 +228,9 @@ def stored_rows(todo: list[RunSpec], results: Path, backend: str, jobs: int, sch
     elif backend == "fork":
         prepare(todo)
         # Ctrl-C reaches this process only; leaving the `with` terminates the workers
-        with multiprocessing.get_context("fork").Pool(jobs, initializer=signal.signal, initargs=(signal.SIGINT, signal.SIG_IGN)) as pool:
+        with multiprocessing.get_context("fork").Pool(
+            jobs, initializer=signal.signal, initargs=(signal.SIGINT, signal.SIG_IGN)
+        ) as pool:
             yield from pool.imap_unordered(partial(execute, results=results), todo)
     else:
         from joblib import delayed
@@ -216,21 +243,38 @@ def stored_rows(todo: list[RunSpec], results: Path, backend: str, jobs: int, sch
 def expected_cost(spec: RunSpec) -> float:
     """Relative wall time of a run (measured: a QP policy or reshaping costs ~5x a fixed-gain run),
     used to start the longest runs first so that no worker is left alone with one at the end."""
-    return spec.point.scenario.duration * (1 + 4 * (spec.policy == "adaptive_qp") + 2 * (spec.pre_impact != "none"))
+    return spec.point.scenario.duration * (
+        1 + 4 * (spec.policy == "adaptive_qp") + 2 * (spec.pre_impact != "none")
+    )
 
 
-def run_sweep(specs: list[RunSpec], results: Path, jobs: int = 2, progress: bool = True,
-              backend: str = "auto", scheduler: str | None = None) -> pd.DataFrame:
+def run_sweep(
+    specs: list[RunSpec],
+    results: Path,
+    jobs: int = 2,
+    progress: bool = True,
+    backend: str = "auto",
+    scheduler: str | None = None,
+) -> pd.DataFrame:
     """Run the specs not yet stored, add them to the consolidated table, return the specs' rows."""
     from tqdm import tqdm
 
     results.mkdir(parents=True, exist_ok=True)
     unique = {s.run_id: s for s in specs}
-    todo = sorted((s for rid, s in unique.items() if not store.is_done(results, rid)), key=expected_cost, reverse=True)
+    todo = sorted(
+        (s for rid, s in unique.items() if not store.is_done(results, rid)), key=expected_cost, reverse=True
+    )
     if todo:
         rows = stored_rows(todo, results, choose_backend(backend, jobs, len(todo)), jobs, scheduler)
-        bar = tqdm(rows, total=len(todo), desc="falls", unit="run", disable=not progress,
-                   initial=0, postfix={"skipped": len(unique) - len(todo)})
+        bar = tqdm(
+            rows,
+            total=len(todo),
+            desc="falls",
+            unit="run",
+            disable=not progress,
+            initial=0,
+            postfix={"skipped": len(unique) - len(todo)},
+        )
         for row in bar:
             bar.set_postfix_str(f"{row['pre_impact']}/{row['policy']} {row['point']}: {row['status']}")
     store.consolidate(results)

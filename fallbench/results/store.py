@@ -28,9 +28,10 @@ import os
 import shutil
 import time
 import uuid
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterator
+from typing import TYPE_CHECKING, Any
 
 from fallbench.scenario import canonical_json
 
@@ -78,7 +79,9 @@ def _parquet_bytes(frame: pd.DataFrame) -> bytes:
     return buffer.getvalue()
 
 
-def write_run(results: Path, rid: str, spec: dict[str, Any], metrics: dict[str, Any], series: pd.DataFrame | None) -> None:
+def write_run(
+    results: Path, rid: str, spec: dict[str, Any], metrics: dict[str, Any], series: pd.DataFrame | None
+) -> None:
     """Write one run's folder atomically; a run already stored is left as it is."""
     import pandas as pd
     from ruamel.yaml import YAML
@@ -108,6 +111,7 @@ def write_run(results: Path, rid: str, spec: dict[str, Any], metrics: dict[str, 
 
 
 # ---------------------------------------------------------------- consolidated parts
+
 
 @contextmanager
 def _locked(table: Path, exclusive: bool) -> Iterator[None]:
@@ -191,7 +195,9 @@ def _write_common_metadata(table: Path, parts: list[Path]) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    schema = pa.unify_schemas([pq.read_schema(p).remove_metadata() for p in parts], promote_options="permissive")
+    schema = pa.unify_schemas(
+        [pq.read_schema(p).remove_metadata() for p in parts], promote_options="permissive"
+    )
     tmp = table / f".{COMMON_METADATA}.{uuid.uuid4().hex[:8]}.tmp"
     pq.write_metadata(schema, tmp)
     os.replace(tmp, table / COMMON_METADATA)
@@ -291,6 +297,7 @@ def add_rows(results: Path, rows: pa.Table) -> None:
 
 # ---------------------------------------------------------------- queries (DuckDB)
 
+
 def _quote(name: str) -> str:
     return '"' + name.replace('"', '""') + '"'
 
@@ -313,7 +320,9 @@ def connect(results: Path) -> Iterator[Any]:
         try:
             if parts:
                 files = ", ".join(_sql_string(str(p)) for p in parts)
-                connection.execute(f"CREATE VIEW runs AS SELECT * FROM read_parquet([{files}], union_by_name = true)")
+                connection.execute(
+                    f"CREATE VIEW runs AS SELECT * FROM read_parquet([{files}], union_by_name = true)"
+                )
             yield connection
         finally:
             connection.close()
@@ -338,7 +347,9 @@ def query(results: Path, sql: str) -> pd.DataFrame:
 
 
 def _has_runs(connection: Any) -> bool:
-    return bool(connection.execute("SELECT count(*) FROM duckdb_views() WHERE view_name = 'runs'").fetchall()[0][0])
+    return bool(
+        connection.execute("SELECT count(*) FROM duckdb_views() WHERE view_name = 'runs'").fetchall()[0][0]
+    )
 
 
 def default_robot() -> str:
@@ -369,7 +380,9 @@ def load_metrics(results: Path, **filters: list[str] | None) -> pd.DataFrame:
                     continue
                 conditions.append("false")
                 continue
-            conditions.append(f"{_quote(key)} IN ({', '.join(_sql_string(v) for v in values)})" if values else "false")
+            conditions.append(
+                f"{_quote(key)} IN ({', '.join(_sql_string(v) for v in values)})" if values else "false"
+            )
         where = f" WHERE {' AND '.join(conditions)}" if conditions else ""
         return _frame(connection.sql(f"SELECT * FROM runs{where} ORDER BY run_id"))
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import cache
-from typing import Callable
 
 from fallbench.robots.description import RobotDescription
 from fallbench.robots.g1 import g1

@@ -59,16 +59,22 @@ class RobotDescription:
     leg_pitch_joints: dict[str, tuple[str, str]]  # "hip"/"knee"/"ankle" -> (left, right) pitch joints
     timeseries_joints: tuple[str, ...]  # joints whose angle and torque every run stores
     trajectory_joints: dict[str, str]  # joint -> label, drawn in the reshaped-fall figure
-    vulnerable_parts: dict[str, tuple[str, ...]]  # part a hit on counts as damage (SafeFall's vulnerable parts) -> its bodies
+    vulnerable_parts: dict[
+        str, tuple[str, ...]
+    ]  # part a hit on counts as damage (SafeFall's vulnerable parts) -> its bodies
     torque_chains: dict[str, str]  # chain name -> regex of its joints, for per-chain torque peaks
     srdf_path: Path | None = None
     armature: dict[str, float] = field(default_factory=dict)  # joint -> kg m^2 reflected rotor inertia
     postures: dict[str, dict[str, float]] = field(default_factory=dict)  # must hold `default`
-    posture_base_height: dict[str, float] = field(default_factory=dict)  # m, root height standing in a posture
+    posture_base_height: dict[str, float] = field(
+        default_factory=dict
+    )  # m, root height standing in a posture
     disabled_collisions: tuple[tuple[str, str], ...] = ()  # body pairs that never collide
     # Columns: the robot's forward, left and up directions in the torso body's frame.
     torso_axes: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    feet: dict[str, str] = field(default_factory=dict)  # "left"/"right" -> the foot body that carries the sole
+    feet: dict[str, str] = field(
+        default_factory=dict
+    )  # "left"/"right" -> the foot body that carries the sole
 
     @property
     def vulnerable_bodies(self) -> tuple[str, ...]:
@@ -95,7 +101,7 @@ class RobotDescription:
         return tuple(joint for side in SIDES for joint in self.legs[side])
 
     def leg_pitch(self, side: str) -> dict[str, str]:
-        """"hip"/"knee"/"ankle" -> the pitch joint of one leg."""
+        """ "hip"/"knee"/"ankle" -> the pitch joint of one leg."""
         return {part: self.leg_pitch_joints[part][SIDES.index(side)] for part in LEG_PITCH_PARTS}
 
     @property
@@ -108,7 +114,7 @@ class RobotDescription:
         return rotation @ np.array(self.torso_axes).T
 
     def torso_axis(self, name: str) -> np.ndarray:
-        """"forward"/"left"/"up" in the torso body's frame."""
+        """ "forward"/"left"/"up" in the torso body's frame."""
         return np.array(self.torso_axes[("forward", "left", "up").index(name)])
 
     @cached_property

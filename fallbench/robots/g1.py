@@ -44,20 +44,43 @@ G1_GAINS = (
 
 _7520_14, _7520_22, _5020, _4010 = 0.010177520, 0.025101925, 0.003609725, 0.00425
 G1_ARMATURE = {
-    **{f"{side}_{joint}_joint": value for side in SIDES for joint, value in (
-        ("hip_pitch", _7520_14), ("hip_roll", _7520_22), ("hip_yaw", _7520_14), ("knee", _7520_22),
-        ("ankle_pitch", 2 * _5020), ("ankle_roll", 2 * _5020), ("shoulder_pitch", _5020), ("shoulder_roll", _5020),
-        ("shoulder_yaw", _5020), ("elbow", _5020), ("wrist_roll", _5020), ("wrist_pitch", _4010), ("wrist_yaw", _4010))},
-    "waist_yaw_joint": _7520_14, "waist_roll_joint": 2 * _5020, "waist_pitch_joint": 2 * _5020,
+    **{
+        f"{side}_{joint}_joint": value
+        for side in SIDES
+        for joint, value in (
+            ("hip_pitch", _7520_14),
+            ("hip_roll", _7520_22),
+            ("hip_yaw", _7520_14),
+            ("knee", _7520_22),
+            ("ankle_pitch", 2 * _5020),
+            ("ankle_roll", 2 * _5020),
+            ("shoulder_pitch", _5020),
+            ("shoulder_roll", _5020),
+            ("shoulder_yaw", _5020),
+            ("elbow", _5020),
+            ("wrist_roll", _5020),
+            ("wrist_pitch", _4010),
+            ("wrist_yaw", _4010),
+        )
+    },
+    "waist_yaw_joint": _7520_14,
+    "waist_roll_joint": 2 * _5020,
+    "waist_pitch_joint": 2 * _5020,
 }
 
 G1_BODY_GROUPS: dict[str, tuple[str, ...]] = {
     "feet": tuple(f"{side}_ankle_{part}_link" for side in SIDES for part in ("roll", "pitch")),
     "knees": tuple(f"{side}_{part}_link" for side in SIDES for part in ("knee", "hip_yaw")),
-    "hands": tuple(f"{side}_{part}" for side in SIDES for part in ("wrist_roll_link", "wrist_pitch_link",
-                                                                    "wrist_yaw_link", "rubber_hand")),
-    "arms": tuple(f"{side}_{part}_link" for side in SIDES for part in ("shoulder_pitch", "shoulder_roll",
-                                                                        "shoulder_yaw", "elbow")),
+    "hands": tuple(
+        f"{side}_{part}"
+        for side in SIDES
+        for part in ("wrist_roll_link", "wrist_pitch_link", "wrist_yaw_link", "rubber_hand")
+    ),
+    "arms": tuple(
+        f"{side}_{part}_link"
+        for side in SIDES
+        for part in ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow")
+    ),
     "torso": ("pelvis", "pelvis_contour_link", "torso_link", "logo_link")
     + tuple(f"{side}_hip_{part}_link" for side in SIDES for part in ("pitch", "roll")),
     "head": ("head_link",),
@@ -65,14 +88,28 @@ G1_BODY_GROUPS: dict[str, tuple[str, ...]] = {
 
 # Parts a hit on damages (SafeFall's "vulnerable parts"): the head (cameras, lidar) and the hands.
 G1_VULNERABLE_PARTS = {"head": G1_BODY_GROUPS["head"]} | {
-    f"hand_{side}": (f"{side}_wrist_yaw_link", f"{side}_rubber_hand") for side in SIDES}
-G1_TORQUE_CHAINS = {"legs": r"(left|right)_(hip|knee|ankle)_.*", "arms": r"(left|right)_(shoulder|elbow|wrist)_.*",
-                    "torso": r"waist_.*"}
+    f"hand_{side}": (f"{side}_wrist_yaw_link", f"{side}_rubber_hand") for side in SIDES
+}
+G1_TORQUE_CHAINS = {
+    "legs": r"(left|right)_(hip|knee|ankle)_.*",
+    "arms": r"(left|right)_(shoulder|elbow|wrist)_.*",
+    "torso": r"waist_.*",
+}
 
 G1_DEFAULT = {
-    **{f"{side}_{joint}_joint": value for side in SIDES for joint, value in (
-        ("hip_pitch", -0.312), ("knee", 0.669), ("ankle_pitch", -0.363), ("elbow", 0.6), ("shoulder_pitch", 0.2))},
-    "left_shoulder_roll_joint": 0.2, "right_shoulder_roll_joint": -0.2,
+    **{
+        f"{side}_{joint}_joint": value
+        for side in SIDES
+        for joint, value in (
+            ("hip_pitch", -0.312),
+            ("knee", 0.669),
+            ("ankle_pitch", -0.363),
+            ("elbow", 0.6),
+            ("shoulder_pitch", 0.2),
+        )
+    },
+    "left_shoulder_roll_joint": 0.2,
+    "right_shoulder_roll_joint": -0.2,
 }
 G1_STANDING_HEIGHT = 0.755  # m, pelvis height standing in `default` (checked in tests/test_physics.py)
 
@@ -82,12 +119,24 @@ G1_STANDING_HEIGHT = 0.755  # m, pelvis height standing in `default` (checked in
 # touch are limbs meeting the body (arm into torso, knee into knee), real collisions kept on.
 G1_DISABLED_COLLISIONS = tuple((f"{side}_wrist_roll_link", f"{side}_wrist_yaw_link") for side in SIDES)
 
-G1_TIMESERIES_JOINTS = ("right_hip_pitch_joint", "right_knee_joint", "right_ankle_pitch_joint", "left_knee_joint",
-                        "waist_yaw_joint", "left_shoulder_pitch_joint", "left_elbow_joint", "left_wrist_pitch_joint",
-                        "right_elbow_joint")
-G1_TRAJECTORY_JOINTS = {"waist_yaw_joint": "waist yaw", "left_shoulder_pitch_joint": "left shoulder pitch",
-                        "left_elbow_joint": "left elbow", "left_wrist_pitch_joint": "left wrist pitch",
-                        "right_knee_joint": "right knee"}
+G1_TIMESERIES_JOINTS = (
+    "right_hip_pitch_joint",
+    "right_knee_joint",
+    "right_ankle_pitch_joint",
+    "left_knee_joint",
+    "waist_yaw_joint",
+    "left_shoulder_pitch_joint",
+    "left_elbow_joint",
+    "left_wrist_pitch_joint",
+    "right_elbow_joint",
+)
+G1_TRAJECTORY_JOINTS = {
+    "waist_yaw_joint": "waist yaw",
+    "left_shoulder_pitch_joint": "left shoulder pitch",
+    "left_elbow_joint": "left elbow",
+    "left_wrist_pitch_joint": "left wrist pitch",
+    "right_knee_joint": "right knee",
+}
 
 
 def g1() -> RobotDescription:
@@ -104,12 +153,28 @@ def g1() -> RobotDescription:
         gain_groups=G1_GAINS,
         body_groups=G1_BODY_GROUPS,
         feet={side: f"{side}_ankle_roll_link" for side in SIDES},
-        legs={side: tuple(f"{side}_{j}_joint" for j in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch",
-                                                        "ankle_roll")) for side in SIDES},
-        arms={side: Arm(f"{side}_shoulder_pitch_joint", f"{side}_elbow_joint", f"{side}_wrist_yaw_joint",
-                        f"{side}_wrist_yaw_link", f"{side}_wrist_pitch_joint", f"{side}_rubber_hand") for side in SIDES},
-        leg_pitch_joints={part: tuple(f"{side}_{part}{suffix}_joint" for side in SIDES)  # type: ignore[misc]
-                          for part, suffix in (("hip", "_pitch"), ("knee", ""), ("ankle", "_pitch"))},
+        legs={
+            side: tuple(
+                f"{side}_{j}_joint"
+                for j in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll")
+            )
+            for side in SIDES
+        },
+        arms={
+            side: Arm(
+                f"{side}_shoulder_pitch_joint",
+                f"{side}_elbow_joint",
+                f"{side}_wrist_yaw_joint",
+                f"{side}_wrist_yaw_link",
+                f"{side}_wrist_pitch_joint",
+                f"{side}_rubber_hand",
+            )
+            for side in SIDES
+        },
+        leg_pitch_joints={
+            part: tuple(f"{side}_{part}{suffix}_joint" for side in SIDES)  # type: ignore[misc]
+            for part, suffix in (("hip", "_pitch"), ("knee", ""), ("ankle", "_pitch"))
+        },
         timeseries_joints=G1_TIMESERIES_JOINTS,
         trajectory_joints=G1_TRAJECTORY_JOINTS,
         vulnerable_parts=G1_VULNERABLE_PARTS,

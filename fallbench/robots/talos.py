@@ -35,30 +35,60 @@ TALOS_BODY_GROUPS: dict[str, tuple[str, ...]] = {
         f"{part}_{side}_{suffix}"
         for side in ("left", "right")
         for part, suffix in (
-            ("arm", "5_link"), ("arm", "6_link"), ("arm", "7_link"), ("wrist", "ft_link"),
-            ("wrist", "ft_tool_link"), ("gripper", "base_link"), ("gripper", "motor_double_link"),
-            ("gripper", "inner_double_link"), ("gripper", "fingertip_1_link"),
-            ("gripper", "fingertip_2_link"), ("gripper", "motor_single_link"),
-            ("gripper", "inner_single_link"), ("gripper", "fingertip_3_link"),
+            ("arm", "5_link"),
+            ("arm", "6_link"),
+            ("arm", "7_link"),
+            ("wrist", "ft_link"),
+            ("wrist", "ft_tool_link"),
+            ("gripper", "base_link"),
+            ("gripper", "motor_double_link"),
+            ("gripper", "inner_double_link"),
+            ("gripper", "fingertip_1_link"),
+            ("gripper", "fingertip_2_link"),
+            ("gripper", "motor_single_link"),
+            ("gripper", "inner_single_link"),
+            ("gripper", "fingertip_3_link"),
         )
     ),
     "arms": tuple(f"arm_{side}_{i}_link" for side in ("left", "right") for i in (1, 2, 3, 4)),
-    "torso": ("base_link", "torso_1_link", "torso_2_link", "leg_left_1_link", "leg_right_1_link",
-              "leg_left_2_link", "leg_right_2_link"),
+    "torso": (
+        "base_link",
+        "torso_1_link",
+        "torso_2_link",
+        "leg_left_1_link",
+        "leg_right_1_link",
+        "leg_left_2_link",
+        "leg_right_2_link",
+    ),
     "head": ("head_1_link", "head_2_link", "rgbd_link"),
 }
 
 
 # Joints whose angle and torque every run stores: the right leg's pitch joints (Figs. 4-6 of 002),
 # the left knee, and the joints of the reshaped-fall figure.
-TALOS_TIMESERIES_JOINTS = ("leg_right_3_joint", "leg_right_4_joint", "leg_right_5_joint", "leg_left_4_joint",
-                           "torso_1_joint", "arm_left_1_joint", "arm_left_4_joint", "arm_left_6_joint", "arm_right_4_joint")
-TALOS_TRAJECTORY_JOINTS = {"torso_1_joint": "torso yaw", "arm_left_1_joint": "left shoulder pitch",
-                           "arm_left_4_joint": "left elbow", "arm_left_6_joint": "left wrist pitch",
-                           "leg_right_4_joint": "right knee"}
+TALOS_TIMESERIES_JOINTS = (
+    "leg_right_3_joint",
+    "leg_right_4_joint",
+    "leg_right_5_joint",
+    "leg_left_4_joint",
+    "torso_1_joint",
+    "arm_left_1_joint",
+    "arm_left_4_joint",
+    "arm_left_6_joint",
+    "arm_right_4_joint",
+)
+TALOS_TRAJECTORY_JOINTS = {
+    "torso_1_joint": "torso yaw",
+    "arm_left_1_joint": "left shoulder pitch",
+    "arm_left_4_joint": "left elbow",
+    "arm_left_6_joint": "left wrist pitch",
+    "leg_right_4_joint": "right knee",
+}
 # Parts a hit on damages (SafeFall's "vulnerable parts"): the head with its camera, and the grippers.
 TALOS_VULNERABLE_PARTS = {"head": TALOS_BODY_GROUPS["head"]} | {
-    f"gripper_{side}": tuple(b for b in TALOS_BODY_GROUPS["hands"] if b.startswith(f"gripper_{side}_")) for side in ("left", "right")}
+    f"gripper_{side}": tuple(b for b in TALOS_BODY_GROUPS["hands"] if b.startswith(f"gripper_{side}_"))
+    for side in ("left", "right")
+}
 TALOS_TORQUE_CHAINS = {"legs": r"leg_.*", "arms": r"arm_.*", "torso": r"torso_.*", "head": r"head_.*"}
 
 
@@ -89,11 +119,23 @@ def talos() -> RobotDescription:
         postures=postures,
         posture_base_height=heights,
         disabled_collisions=read_srdf_disabled_collisions(srdf),
-        arms={side: Arm(f"arm_{side}_1_joint", f"arm_{side}_4_joint", f"arm_{side}_7_joint", f"arm_{side}_7_link",
-                        f"arm_{side}_6_joint", f"gripper_{side}_base_link") for side in ("left", "right")},
+        arms={
+            side: Arm(
+                f"arm_{side}_1_joint",
+                f"arm_{side}_4_joint",
+                f"arm_{side}_7_joint",
+                f"arm_{side}_7_link",
+                f"arm_{side}_6_joint",
+                f"gripper_{side}_base_link",
+            )
+            for side in ("left", "right")
+        },
         legs={side: tuple(f"leg_{side}_{i}_joint" for i in range(1, 7)) for side in SIDES},
-        leg_pitch_joints={"hip": ("leg_left_3_joint", "leg_right_3_joint"), "knee": ("leg_left_4_joint", "leg_right_4_joint"),
-                          "ankle": ("leg_left_5_joint", "leg_right_5_joint")},
+        leg_pitch_joints={
+            "hip": ("leg_left_3_joint", "leg_right_3_joint"),
+            "knee": ("leg_left_4_joint", "leg_right_4_joint"),
+            "ankle": ("leg_left_5_joint", "leg_right_5_joint"),
+        },
         feet={side: f"leg_{side}_6_link" for side in ("left", "right")},
         timeseries_joints=TALOS_TIMESERIES_JOINTS,
         trajectory_joints=TALOS_TRAJECTORY_JOINTS,

@@ -27,7 +27,13 @@ import numpy as np
 from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.scenario import Scenario
 from fallbench.sim.controllers import Observation, PostImpactController, PreImpactController
-from fallbench.sim.events import CapturePointDetector, FallDetector, FreefallDetector, ImpactDetector, TiltDetector
+from fallbench.sim.events import (
+    CapturePointDetector,
+    FallDetector,
+    FreefallDetector,
+    ImpactDetector,
+    TiltDetector,
+)
 from fallbench.sim.impacts import ImpactLog
 from fallbench.sim.recorder import Recording, Trace
 from fallbench.sim.servo import ServoCommand, write_servo
@@ -35,8 +41,13 @@ from fallbench.sim.support import FootSupport
 from fallbench.sim.world import World, initial_state
 
 LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
-DIVERGENCE_WARNINGS = np.array([int(mujoco.mjtWarning.mjWARN_BADQACC), int(mujoco.mjtWarning.mjWARN_BADQVEL),
-                                int(mujoco.mjtWarning.mjWARN_BADQPOS)])
+DIVERGENCE_WARNINGS = np.array(
+    [
+        int(mujoco.mjtWarning.mjWARN_BADQACC),
+        int(mujoco.mjtWarning.mjWARN_BADQVEL),
+        int(mujoco.mjtWarning.mjWARN_BADQPOS),
+    ]
+)
 
 
 # Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
@@ -46,8 +57,12 @@ mujoco.set_mju_user_warning(lambda message: None)
 
 def make_fall_detector(scenario: Scenario) -> FallDetector:
     detection = scenario.detection
-    return FallDetector(detection.method, CapturePointDetector(detection.capture_point_margin),
-                        TiltDetector(detection.tilt), FreefallDetector(detection.freefall, detection.freefall_hold))
+    return FallDetector(
+        detection.method,
+        CapturePointDetector(detection.capture_point_margin),
+        TiltDetector(detection.tilt),
+        FreefallDetector(detection.freefall, detection.freefall_hold),
+    )
 
 
 def _push_force(world: World, scenario: Scenario) -> tuple[int, np.ndarray] | None:
@@ -64,8 +79,15 @@ def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) ->
     """Switched motors follow the gain policy, the others the pre-impact command."""
     if switched.all():
         return policy
-    return ServoCommand(*(np.where(switched, a, b) for a, b in zip(
-        (policy.kp, policy.kd, policy.q_ref, policy.qd_ref), (other.kp, other.kd, other.q_ref, other.qd_ref))))
+    return ServoCommand(
+        *(
+            np.where(switched, a, b)
+            for a, b in zip(
+                (policy.kp, policy.kd, policy.q_ref, policy.qd_ref),
+                (other.kp, other.kd, other.q_ref, other.qd_ref),
+            )
+        )
+    )
 
 
 class Takeover:
@@ -93,9 +115,21 @@ class Episode:
     path): each control step runs the fall detector, the strategy, the impact detector, the gain
     policy and the servo, then the physics substeps record the trace."""
 
-    def __init__(self, world: World, scenario: Scenario, policy: PostImpactController, strategy: PreImpactController,
-                 pre_impact: str) -> None:
-        self.world, self.scenario, self.policy, self.strategy, self.pre_impact = world, scenario, policy, strategy, pre_impact
+    def __init__(
+        self,
+        world: World,
+        scenario: Scenario,
+        policy: PostImpactController,
+        strategy: PreImpactController,
+        pre_impact: str,
+    ) -> None:
+        self.world, self.scenario, self.policy, self.strategy, self.pre_impact = (
+            world,
+            scenario,
+            policy,
+            strategy,
+            pre_impact,
+        )
         model = world.model
         self.data = data = initial_state(world, scenario)
         self.per_control = scenario.physics_steps_per_control
@@ -104,20 +138,30 @@ class Episode:
         self.impacts = ImpactLog(world)
         self.pinocchio = pinocchio_for(world)
         self.landed_bodies = {b for g in LANDED_GROUPS for b in world.robot.body_groups.get(g, ())}
-        self.fall, self.impact, self.support = make_fall_detector(scenario), ImpactDetector(), FootSupport(world)
+        self.fall, self.impact, self.support = (
+            make_fall_detector(scenario),
+            ImpactDetector(),
+            FootSupport(world),
+        )
         self.takeover = Takeover(model.nu)
         self.push = _push_force(world, scenario)
-        self.pre_command = ServoCommand(world.default_kp, world.default_kd, data.qpos[world.qpos_adr].copy(), np.zeros(model.nu))
+        self.pre_command = ServoCommand(
+            world.default_kp, world.default_kd, data.qpos[world.qpos_adr].copy(), np.zeros(model.nu)
+        )
         self.policy_command: ServoCommand | None = None
         self.written = self.pre_command
-        write_servo(model, data, self.written)  # before the first forward pass: the cached model holds the last episode's gains
+        write_servo(
+            model, data, self.written
+        )  # before the first forward pass: the cached model holds the last episode's gains
         self.trace.changes.append((0, self.written))
         mujoco.mj_forward(model, data)
         self.sensor_row = data.sensordata.copy()
         self.torso_rotation = np.zeros(9)
         self.controller_ms: list[float] = []
         self.seen = np.zeros(len(world.contact_bodies), dtype=bool)  # bodies in contact at detection or since
-        self.unplanned: np.ndarray | bool = True  # bodies whose contact would be an impact (not a planned footstep)
+        self.unplanned: np.ndarray | bool = (
+            True  # bodies whose contact would be an impact (not a planned footstep)
+        )
         self.step = self.since = 0  # physics step now, and at the previous control step
         self.physics_s, self.status, self.error = 0.0, "ok", ""
 
@@ -132,7 +176,9 @@ class Episode:
                 switched_now = self.detect_impacts(t, found)
                 self.strategy_step(t)
             command = self.command(t, found, switched_now)
-            self.controller_ms.append((time.perf_counter() - started) * 1e3 if self.fall.time is not None else 0.0)
+            self.controller_ms.append(
+                (time.perf_counter() - started) * 1e3 if self.fall.time is not None else 0.0
+            )
             self.write(command)
             self.apply_push(t)
             self.physics()
@@ -142,7 +188,7 @@ class Episode:
 
     def found(self) -> np.ndarray:
         """Per contact body: whether its contact sensor found a contact since the last control step."""
-        rows = self.trace.sensordata[self.since:self.step] if self.step else self.sensor_row[None]
+        rows = self.trace.sensordata[self.since : self.step] if self.step else self.sensor_row[None]
         return np.take(rows, self.world.contact_found_columns, axis=1).max(axis=0) > 0
 
     def names(self, mask: np.ndarray) -> set[str]:
@@ -156,9 +202,17 @@ class Episode:
         detected = self.fall.time is not None
         found, world = self.found(), self.world
         mujoco.mju_copy(self.torso_rotation, self.data.xmat[world.torso_body])
-        if self.fall.update(t, world.robot.torso_frame(self.torso_rotation.reshape(3, 3)), world.sensor(self.sensor_row, "imu_acc"),
-                            world.sensor(self.sensor_row, "com_pos"), world.sensor(self.sensor_row, "com_vel"),
-                            self.support.points(self.data, found)) and not detected:
+        if (
+            self.fall.update(
+                t,
+                world.robot.torso_frame(self.torso_rotation.reshape(3, 3)),
+                world.sensor(self.sensor_row, "imu_acc"),
+                world.sensor(self.sensor_row, "com_pos"),
+                world.sensor(self.sensor_row, "com_vel"),
+                self.support.points(self.data, found),
+            )
+            and not detected
+        ):
             self.seen = found
             self.impact.start(self.names(found))
             self.strategy.start(t, self.data)
@@ -197,7 +251,9 @@ class Episode:
         if switched_now or not policy.static or self.policy_command is None:
             world, qpos, qvel = self.world, self.data.qpos, self.data.qvel
             touching = self.names(found) if policy.needs_contacts else set()
-            observation = Observation(t, qpos.copy(), qvel.copy(), qpos[world.qpos_adr], qvel[world.qvel_adr], touching, self.data)
+            observation = Observation(
+                t, qpos.copy(), qvel.copy(), qpos[world.qpos_adr], qvel[world.qvel_adr], touching, self.data
+            )
             assert takeover.q_ref is not None
             self.policy_command = policy.after_impact(observation, takeover.q_ref)
         return _compose(takeover.switched, self.policy_command, self.pre_command)
@@ -242,7 +298,10 @@ class Episode:
         if not counts[DIVERGENCE_WARNINGS].any() and math.isfinite(self.data.qacc.sum()):
             return False
         self.status = "diverged"
-        self.error = ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if counts[w]) or "non-finite state"
+        self.error = (
+            ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if counts[w])
+            or "non-finite state"
+        )
         return True
 
     def landing_errors(self) -> dict[str, float]:
@@ -259,21 +318,45 @@ class Episode:
         step, trace, scenario = self.step, self.trace, self.scenario
         held = trace.held(step, self.world.model.nu)
         return Recording(
-            world=self.world, scenario=scenario, time=np.arange(step) * scenario.physics_dt, sensordata=trace.sensordata[:step],
-            qpos=trace.qpos[:step], qvel=trace.qvel[:step], actuator_force=trace.actuator_force[:step],
-            kp=held[0], kd=held[1], q_ref=held[2], qd_ref=held[3],
-            fall_time=self.fall.time, fall_reason=self.fall.reason, fall_times=dict(self.fall.times),
-            impact_time=self.impact.time, impact_bodies=self.impact.bodies,
-            controller_ms=np.array(self.controller_ms), physics_s=self.physics_s, pre_impact=self.pre_impact,
-            impact_events=self.impacts.events, contact_times={body: c.t for body, c in self.impacts.first_contacts.items()},
-            landing_errors=self.landing_errors(), policy_stats=self.policy.stats() | self.strategy.stats(), strategy=self.strategy,
-            switch_time=self.takeover.time, policy_failure_times=self.policy.failure_times(), steps=step,
-            status=self.status, error=self.error,
+            world=self.world,
+            scenario=scenario,
+            time=np.arange(step) * scenario.physics_dt,
+            sensordata=trace.sensordata[:step],
+            qpos=trace.qpos[:step],
+            qvel=trace.qvel[:step],
+            actuator_force=trace.actuator_force[:step],
+            kp=held[0],
+            kd=held[1],
+            q_ref=held[2],
+            qd_ref=held[3],
+            fall_time=self.fall.time,
+            fall_reason=self.fall.reason,
+            fall_times=dict(self.fall.times),
+            impact_time=self.impact.time,
+            impact_bodies=self.impact.bodies,
+            controller_ms=np.array(self.controller_ms),
+            physics_s=self.physics_s,
+            pre_impact=self.pre_impact,
+            impact_events=self.impacts.events,
+            contact_times={body: c.t for body, c in self.impacts.first_contacts.items()},
+            landing_errors=self.landing_errors(),
+            policy_stats=self.policy.stats() | self.strategy.stats(),
+            strategy=self.strategy,
+            switch_time=self.takeover.time,
+            policy_failure_times=self.policy.failure_times(),
+            steps=step,
+            status=self.status,
+            error=self.error,
         )
 
 
-def run_episode(world: World, scenario: Scenario, policy: PostImpactController, strategy: PreImpactController,
-                pre_impact: str = "none") -> Recording:
+def run_episode(
+    world: World,
+    scenario: Scenario,
+    policy: PostImpactController,
+    strategy: PreImpactController,
+    pre_impact: str = "none",
+) -> Recording:
     """Simulate one fall; `world` is built from `scenario` (with the baseline gains the run uses) and
     `pre_impact` names the strategy in the recording."""
     return Episode(world, scenario, policy, strategy, pre_impact).run()

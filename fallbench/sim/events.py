@@ -71,7 +71,7 @@ def signed_distance(point: np.ndarray, polygon: np.ndarray) -> float:
     offset = np.asarray(point, dtype=float)[:2] - start
     length2 = (edge * edge).sum(axis=1)
     along = np.clip((offset * edge).sum(axis=1) / np.where(length2 > 1e-18, length2, 1.0), 0.0, 1.0)
-    nearest = (offset - along[:, None] * edge)
+    nearest = offset - along[:, None] * edge
     distance = float(np.sqrt((nearest * nearest).sum(axis=1)).min())
     inside = len(polygon) >= 3 and bool((edge[:, 0] * offset[:, 1] - edge[:, 1] * offset[:, 0] >= 0).all())
     return -distance if inside else distance
@@ -145,8 +145,15 @@ class FallDetector:
     reason: str = ""
     times: dict[str, float] = field(default_factory=dict)
 
-    def update(self, t: float, torso_rotation: np.ndarray, imu_acc: np.ndarray, com: np.ndarray,
-               com_velocity: np.ndarray, support_points: np.ndarray) -> bool:
+    def update(
+        self,
+        t: float,
+        torso_rotation: np.ndarray,
+        imu_acc: np.ndarray,
+        com: np.ndarray,
+        com_velocity: np.ndarray,
+        support_points: np.ndarray,
+    ) -> bool:
         """Feed every detector one control step; True once the fall is declared."""
         self.capture.update(t, com, com_velocity, support_points)
         self.tilt.update(t, torso_rotation)

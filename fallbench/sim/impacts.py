@@ -39,7 +39,9 @@ class ImpactLog:
         self.P = pinocchio_for(self.world)
         self.group_of = {b: g for g, bodies in self.world.robot.body_groups.items() for b in bodies}
 
-    def update(self, t: float, touching: set[str], data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> None:
+    def update(
+        self, t: float, touching: set[str], data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray
+    ) -> None:
         """Log bodies touching for the first time (`touching` excludes the support at detection)."""
         new = sorted(b for b in touching if b not in self.first_contacts)
         if not new:
@@ -47,19 +49,35 @@ class ImpactLog:
         contacts = self._contacts(data, set(new))
         for body in new:
             points = [c.point for c in contacts if c.body == body]
-            self.first_contacts[body] = FirstContact(t, np.mean(points, axis=0) if points else data.xpos[self.world.model.body(body).id].copy())
+            self.first_contacts[body] = FirstContact(
+                t, np.mean(points, axis=0) if points else data.xpos[self.world.model.body(body).id].copy()
+            )
         logged = {e.group for e in self.events}
         for group in sorted({self.group_of.get(b, "other") for b in new} - logged):
             bodies = [b for b in new if self.group_of.get(b, "other") == group]
-            self.events.append(self._event(t, group, bodies, [c for c in contacts if c.body in bodies], qpos, qvel))
+            self.events.append(
+                self._event(t, group, bodies, [c for c in contacts if c.body in bodies], qpos, qvel)
+            )
 
-    def _event(self, t: float, group: str, bodies: list[str], impacts: list[Impact], qpos: np.ndarray, qvel: np.ndarray) -> ImpactEvent:
+    def _event(
+        self,
+        t: float,
+        group: str,
+        bodies: list[str],
+        impacts: list[Impact],
+        qpos: np.ndarray,
+        qvel: np.ndarray,
+    ) -> ImpactEvent:
         world = self.world
-        elbows = {side: float(qpos[world.qpos_adr[world.joint_names.index(arm.elbow_joint)]])
-                  for side, arm in world.robot.arms.items()}
+        elbows = {
+            side: float(qpos[world.qpos_adr[world.joint_names.index(arm.elbow_joint)]])
+            for side, arm in world.robot.arms.items()
+        }
         judged = [world.joint_names[i] for i in select_motors(self.P, set(bodies), world.joint_names)]
         q, _ = self.P.state(qpos, qvel)
-        singular = singular_joints(self.P.model, self.P.data, q, impacts, judged) if impacts and judged else []
+        singular = (
+            singular_joints(self.P.model, self.P.data, q, impacts, judged) if impacts and judged else []
+        )
         return ImpactEvent(t, group, bodies, elbows, singular)
 
     def _contacts(self, data: mujoco.MjData, bodies: set[str]) -> list[Impact]:
@@ -74,15 +92,25 @@ class ImpactLog:
             index = int(contacts.index[k])
             mujoco.mj_contactForce(model, data, index, wrench)
             force = contacts.sign[k] * data.contact[index].frame.reshape(3, 3).T @ wrench[:3]
-            found.append(Impact(body, contacts.positions[k], force if np.linalg.norm(force) >= 1e-6 else contacts.normals[k]))
+            found.append(
+                Impact(
+                    body,
+                    contacts.positions[k],
+                    force if np.linalg.norm(force) >= 1e-6 else contacts.normals[k],
+                )
+            )
         return found
 
     def side_first_contact(self, side: str) -> tuple[str, FirstContact] | None:
         """The first contact of a hand body on this arm (a body on the chain through its shoulder)."""
         model = self.P.model
         shoulder = model.getJointId(self.world.robot.arms[side].shoulder_joint)
-        hands = [b for b in self.world.robot.body_groups["hands"] if b in self.first_contacts
-                 and shoulder in model.supports[model.frames[model.getFrameId(b)].parentJoint]]
+        hands = [
+            b
+            for b in self.world.robot.body_groups["hands"]
+            if b in self.first_contacts
+            and shoulder in model.supports[model.frames[model.getFrameId(b)].parentJoint]
+        ]
         if not hands:
             return None
         body = min(hands, key=lambda b: self.first_contacts[b].t)
@@ -121,8 +149,10 @@ def touches(world: World, contact_times: dict[str, float]) -> list[Touch]:
     """The episode's first contacts per body, in time order, with their group and side."""
     group_of = {b: g for g, bodies in world.robot.body_groups.items() for b in bodies}
     sides = body_sides(world)
-    return sorted((Touch(t, group_of.get(b, "other"), sides.get(b, "")) for b, t in contact_times.items()),
-                  key=lambda touch: (touch.t, touch.group, touch.side))
+    return sorted(
+        (Touch(t, group_of.get(b, "other"), sides.get(b, "")) for b, t in contact_times.items()),
+        key=lambda touch: (touch.t, touch.group, touch.side),
+    )
 
 
 def _first(touches: list[Touch], group: str, side: str | None = None) -> float | None:

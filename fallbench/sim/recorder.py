@@ -46,9 +46,15 @@ class Recording:
     switch_time: np.ndarray  # s per motor at which it switched to the gain policy, NaN = never
     physics_s: float = 0.0  # s of wall time inside mj_step
     pre_impact: str = "none"
-    impact_events: list[ImpactEvent] = field(default_factory=list)  # first contact of each body group, in order
-    contact_times: dict[str, float] = field(default_factory=dict)  # s, first contact of each body after the fall was detected
-    landing_errors: dict[str, float] = field(default_factory=dict)  # m per arm side, chosen BIP to wrist contact
+    impact_events: list[ImpactEvent] = field(
+        default_factory=list
+    )  # first contact of each body group, in order
+    contact_times: dict[str, float] = field(
+        default_factory=dict
+    )  # s, first contact of each body after the fall was detected
+    landing_errors: dict[str, float] = field(
+        default_factory=dict
+    )  # m per arm side, chosen BIP to wrist contact
     policy_stats: dict[str, float] = field(default_factory=dict)
     strategy: OutcomeMetrics | None = None  # the pre-impact strategy, for its own metrics
     policy_failure_times: list[float] = field(default_factory=list)  # s, control steps whose policy QP failed
@@ -72,5 +78,7 @@ class Trace:
         gains = np.empty((4, n_steps, nu))
         ends = [k for k, _ in self.changes[1:]] + [n_steps]
         for (start, command), end in zip(self.changes, ends):
-            gains[:, start:end] = np.stack([command.kp, command.kd, command.q_ref, command.qd_ref])[:, None, :]
+            gains[:, start:end] = np.stack([command.kp, command.kd, command.q_ref, command.qd_ref])[
+                :, None, :
+            ]
         return gains

@@ -33,7 +33,13 @@ def write_servo(model: mujoco.MjModel, data: mujoco.MjData, command: ServoComman
     data.ctrl[:] = command.q_ref
 
 
-def pd_demand(command_kp: np.ndarray, command_kd: np.ndarray, q_ref: np.ndarray, qd_ref: np.ndarray,
-              q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+def pd_demand(
+    command_kp: np.ndarray,
+    command_kd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+) -> np.ndarray:
     """The unclamped PD torque K e + B e_dot (Nm); works on (time, joint) arrays."""
     return command_kp * (q_ref - q) + command_kd * (qd_ref - qd)

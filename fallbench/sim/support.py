@@ -38,7 +38,9 @@ def body_box_corners(model: mujoco.MjModel, body: int) -> tuple[np.ndarray, np.n
 
 def world_corners(data: mujoco.MjData, geoms: np.ndarray, corners: np.ndarray) -> np.ndarray:
     """(8 n, 3) world positions of geoms' corners from body_box_corners."""
-    return np.concatenate([c @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g] for g, c in zip(geoms, corners)])
+    return np.concatenate(
+        [c @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g] for g, c in zip(geoms, corners)]
+    )
 
 
 class FootSupport:

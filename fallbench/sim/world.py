@@ -22,7 +22,6 @@ import tempfile
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -73,6 +72,7 @@ class World:
 
 # ---------------------------------------------------------------- building the spec
 
+
 def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
     import xml.etree.ElementTree as ET
 
@@ -82,8 +82,14 @@ def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
             tree.remove(element)
     extension = ET.SubElement(tree, "mujoco")
     # strippath=false: two different meshes are both called base_link.STL.
-    ET.SubElement(extension, "compiler", strippath="false", discardvisual="true",
-                  fusestatic="false", balanceinertia="true")
+    ET.SubElement(
+        extension,
+        "compiler",
+        strippath="false",
+        discardvisual="true",
+        fusestatic="false",
+        balanceinertia="true",
+    )
     return mujoco.MjSpec.from_string(ET.tostring(tree, encoding="unicode"))
 
 
@@ -103,7 +109,9 @@ def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, fri
     geom.rgba = [0.6, 0.45, 0.3, 1.0]
 
 
-def _add_contact_sensor(spec: mujoco.MjSpec, name: str, body: str, subtree: bool = False, geom2: str | None = None) -> None:
+def _add_contact_sensor(
+    spec: mujoco.MjSpec, name: str, body: str, subtree: bool = False, geom2: str | None = None
+) -> None:
     """Net force between `body` (or its subtree) and the environment: the world's static geoms
     (floor and obstacles), or one obstacle geom. Robot self-contacts are not counted."""
     sensor = spec.add_sensor()
@@ -167,19 +175,28 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
 
     imu = spec.body(robot.imu_body).add_site()
     imu.name = "imu"
-    for name, kind in (("imu_acc", mujoco.mjtSensor.mjSENS_ACCELEROMETER), ("imu_gyro", mujoco.mjtSensor.mjSENS_GYRO)):
+    for name, kind in (
+        ("imu_acc", mujoco.mjtSensor.mjSENS_ACCELEROMETER),
+        ("imu_gyro", mujoco.mjtSensor.mjSENS_GYRO),
+    ):
         sensor = spec.add_sensor()
         sensor.name, sensor.type = name, kind
         sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_SITE, "imu"
-    for name, kind in (("base_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS), ("base_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT),
-                       ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL)):
+    for name, kind in (
+        ("base_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
+        ("base_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT),
+        ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL),
+    ):
         sensor = spec.add_sensor()
         sensor.name, sensor.type = name, kind
         # XBODY: the body's own frame (BODY would be its inertial frame, which a URDF may rotate)
         sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_XBODY, robot.root_body
 
     # whole-robot CoM and its velocity, for the capture point (computed in C inside the step)
-    for name, kind in (("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM), ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL)):
+    for name, kind in (
+        ("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM),
+        ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL),
+    ):
         sensor = spec.add_sensor()
         sensor.name, sensor.type = name, kind
         sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_BODY, robot.root_body
@@ -190,16 +207,28 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
             if spec.body(body) is not None and spec.body(body).geoms:
                 _add_contact_sensor(spec, f"contact:{group}:{body}", body)
     for index in range(len(scenario.obstacles)):
-        _add_contact_sensor(spec, f"obstacle:{index}", robot.root_body, subtree=True, geom2=f"obstacle_{index}")
+        _add_contact_sensor(
+            spec, f"obstacle:{index}", robot.root_body, subtree=True, geom2=f"obstacle_{index}"
+        )
     return spec
 
 
 # ---------------------------------------------------------------- compiled world
 
+
 def _world_key(scenario: Scenario) -> str:
     """Only what changes the compiled model: a sweep over pushes or heights reuses one model."""
-    return scenario.model_copy(update={"initial": None, "push": None, "duration": 1.0, "seed": 0,
-                                       "name": "", "detection": None, "policy_params": {}}).model_dump_json()
+    return scenario.model_copy(
+        update={
+            "initial": None,
+            "push": None,
+            "duration": 1.0,
+            "seed": 0,
+            "name": "",
+            "detection": None,
+            "policy_params": {},
+        }
+    ).model_dump_json()
 
 
 @cache
@@ -211,8 +240,13 @@ def _builder_source() -> bytes:
 
 def _model_cache_file(scenario: Scenario) -> Path:
     robot = get_robot(scenario.robot)
-    digest = hashlib.sha256(_world_key(scenario).encode() + mujoco.__version__.encode() + robot.version.encode()
-                            + robot.urdf_path.read_bytes() + _builder_source())
+    digest = hashlib.sha256(
+        _world_key(scenario).encode()
+        + mujoco.__version__.encode()
+        + robot.version.encode()
+        + robot.urdf_path.read_bytes()
+        + _builder_source()
+    )
     root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench"
     return root / f"world-{robot.name}-{digest.hexdigest()[:16]}.mjb"
 
@@ -245,8 +279,10 @@ def compile_model(scenario: Scenario) -> mujoco.MjModel:
 def _compile(scenario: Scenario) -> World:
     model = compile_model(scenario)
     robot = get_robot(scenario.robot)
-    sensors = {model.sensor(i).name: SensorSlice(int(model.sensor_adr[i]), int(model.sensor_dim[i]))
-               for i in range(model.nsensor)}
+    sensors = {
+        model.sensor(i).name: SensorSlice(int(model.sensor_adr[i]), int(model.sensor_dim[i]))
+        for i in range(model.nsensor)
+    }
     names = tuple(model.actuator(i).name for i in range(model.nu))
     joint_ids = [model.joint(n).id for n in names]
     groups: dict[str, list[str]] = {}
@@ -289,6 +325,7 @@ def build_world(scenario: Scenario) -> World:
 
 # ---------------------------------------------------------------- initial state
 
+
 def _lowest_point(model: mujoco.MjModel, data: mujoco.MjData, body_ids: set[int]) -> float:
     """Lowest z of the robot's collision geometry (box corners and mesh vertices)."""
     lowest = math.inf
@@ -319,7 +356,9 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
         joint = model.joint(name)
         data.qpos[model.jnt_qposadr[joint.id]] = value
     if scenario.initial.joint_noise > 0:  # posture noise, the same for every policy of a seed
-        noise = np.random.default_rng([scenario.seed, POSTURE_NOISE_STREAM]).uniform(-1, 1, len(world.joint_names))
+        noise = np.random.default_rng([scenario.seed, POSTURE_NOISE_STREAM]).uniform(
+            -1, 1, len(world.joint_names)
+        )
         # The legs keep the posture: noise there tilts the soles (0.03 rad on each of six leg joints
         # leaves a sole's corners up to ~2 cm apart), so a standing start would rest on one corner,
         # drop, and be declared a fall at t = 0 with a foot's landing as the impact.
@@ -338,13 +377,17 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
 
 # ---------------------------------------------------------------- checks before running
 
+
 def check_scene(scenario: Scenario) -> tuple[str, str] | None:
     """(key, reason) of the first problem that needs the robot or the scene to see, else None."""
     if scenario.robot not in ROBOTS:
         return "robot", f"unknown robot {scenario.robot!r} (known: {', '.join(sorted(ROBOTS))})"
     robot = get_robot(scenario.robot)
     if scenario.initial.posture not in robot.postures:
-        return "initial.posture", f"unknown posture {scenario.initial.posture!r} (known: {', '.join(robot.postures)})"
+        return (
+            "initial.posture",
+            f"unknown posture {scenario.initial.posture!r} (known: {', '.join(robot.postures)})",
+        )
     world = build_world(scenario)
     model = world.model
     for name in scenario.initial.joints:
@@ -353,11 +396,21 @@ def check_scene(scenario: Scenario) -> tuple[str, str] | None:
     for name, value in scenario.initial.joints.items():
         low, high = world.joint_range[world.joint_names.index(name)]
         if not low <= value <= high:
-            return f"initial.joints.{name}", f"{value} rad is outside the joint range [{low:.3f}, {high:.3f}] rad"
-    if scenario.push and scenario.push.body is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scenario.push.body) < 1:
+            return (
+                f"initial.joints.{name}",
+                f"{value} rad is outside the joint range [{low:.3f}, {high:.3f}] rad",
+            )
+    if (
+        scenario.push
+        and scenario.push.body is not None
+        and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scenario.push.body) < 1
+    ):
         return "push.body", f"unknown body {scenario.push.body!r} of robot {robot.name!r}"
     if scenario.push and scenario.push.start >= scenario.duration:
-        return "push.start", f"the push starts at {scenario.push.start} s, after the episode ends ({scenario.duration} s)"
+        return (
+            "push.start",
+            f"the push starts at {scenario.push.start} s, after the episode ends ({scenario.duration} s)",
+        )
     if not scenario.obstacles:  # nothing to intersect (posing the robot costs each point ~4 ms)
         return None
     data = initial_state(world, scenario)
@@ -367,7 +420,10 @@ def check_scene(scenario: Scenario) -> tuple[str, str] | None:
         obstacle = next((n for n in names if n.startswith("obstacle_")), None)
         if obstacle is not None and contact.dist < 0:
             index = int(obstacle.split("_")[1])
-            return f"obstacles.{index}", f"intersects the robot at start (penetration {-contact.dist * 1000:.0f} mm)"
+            return (
+                f"obstacles.{index}",
+                f"intersects the robot at start (penetration {-contact.dist * 1000:.0f} mm)",
+            )
     return None
 
 

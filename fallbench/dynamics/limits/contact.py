@@ -22,19 +22,30 @@ RANK_TOLERANCE = 1e-6  # relative to a body's largest singular value
 
 def normal_acceleration_rows(kinematics: ContactKinematics) -> tuple[np.ndarray, np.ndarray]:
     """(R, r): independent rows with R q_ddot + r = 0 equivalent to zero normal acceleration of every point."""
-    combined = independent_rows(kinematics.normal_jacobian, kinematics.normal_drift, kinematics.body_of, RANK_TOLERANCE)
+    combined = independent_rows(
+        kinematics.normal_jacobian, kinematics.normal_drift, kinematics.body_of, RANK_TOLERANCE
+    )
     return combined[:, :-1], combined[:, -1]
 
 
 def normal_motion_cost(kinematics: ContactKinematics, weight: float, dt: float) -> SetPoint:
     """Contact points neither sinking in nor lifting off within one control step, as a cost:
     weight |n'(J q_ddot + J_dot q_dot) + n'v / dt|^2."""
-    return SetPoint(weight, kinematics.normal_jacobian, np.zeros(len(kinematics.normals)), kinematics.normal_drift, 0.0, 1.0 / dt)
+    return SetPoint(
+        weight,
+        kinematics.normal_jacobian,
+        np.zeros(len(kinematics.normals)),
+        kinematics.normal_drift,
+        0.0,
+        1.0 / dt,
+    )
 
 
 def tangential_motion_cost(kinematics: ContactKinematics, weight: float, dt: float) -> list[SetPoint]:
     """Soft no-slip: weight |T(J q_ddot + J_dot q_dot) + T v / dt|^2 with T = I - n n' per point, as two
     tasks: with T a projection |T x|^2 = |x|^2 - (n'x)^2, so the whole point motion at `weight` and the
     normal motion at -weight (no projected Jacobian is formed)."""
-    whole = SetPoint(weight, kinematics.jacobian, np.zeros(len(kinematics.drift)), kinematics.drift, 0.0, 1.0 / dt)
+    whole = SetPoint(
+        weight, kinematics.jacobian, np.zeros(len(kinematics.drift)), kinematics.drift, 0.0, 1.0 / dt
+    )
     return [whole, normal_motion_cost(kinematics, -weight, dt)]

@@ -10,8 +10,9 @@ QDD_BOUND = 1e4  # rad/s^2: bounds beyond this add nothing and would only worsen
 
 
 @compiled
-def joint_acceleration_bounds(q: np.ndarray, v: np.ndarray, actuated_v: np.ndarray, joint_range: np.ndarray,
-                              horizon: float) -> tuple[np.ndarray, np.ndarray]:
+def joint_acceleration_bounds(
+    q: np.ndarray, v: np.ndarray, actuated_v: np.ndarray, joint_range: np.ndarray, horizon: float
+) -> tuple[np.ndarray, np.ndarray]:
     """q_ddot bounds (rad/s^2, all nv velocity entries) from the configuration q and velocity v
     (Pinocchio's): on the actuated joints (velocity indices actuated_v, ranges joint_range in the
     same order) those that keep q + v h + q_ddot h^2 / 2 within range over `horizon` h (s, never an
@@ -19,8 +20,15 @@ def joint_acceleration_bounds(q: np.ndarray, v: np.ndarray, actuated_v: np.ndarr
     low, high = np.full(len(v), -QDD_BOUND), np.full(len(v), QDD_BOUND)
     for k in range(len(actuated_v)):
         i = actuated_v[k]
-        position, rate = q[7 + i - 6], v[i]  # a 1-dof joint's q index is its v index + 1 (the base's quaternion)
-        first = min(max(2 * (joint_range[k, 0] - position - rate * horizon) / horizon**2, -QDD_BOUND), QDD_BOUND)
-        second = min(max(2 * (joint_range[k, 1] - position - rate * horizon) / horizon**2, -QDD_BOUND), QDD_BOUND)
+        position, rate = (
+            q[7 + i - 6],
+            v[i],
+        )  # a 1-dof joint's q index is its v index + 1 (the base's quaternion)
+        first = min(
+            max(2 * (joint_range[k, 0] - position - rate * horizon) / horizon**2, -QDD_BOUND), QDD_BOUND
+        )
+        second = min(
+            max(2 * (joint_range[k, 1] - position - rate * horizon) / horizon**2, -QDD_BOUND), QDD_BOUND
+        )
         low[i], high[i] = min(first, second), max(first, second)
     return low, high

@@ -14,8 +14,9 @@ LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 ONE_BODY = np.zeros(1, dtype=np.int64)  # body_of of a single point
 
 
-def bodies_points_kinematics(model: pin.Model, data: pin.Data, frames: list[int], body_of: np.ndarray,
-                             offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def bodies_points_kinematics(
+    model: pin.Model, data: pin.Data, frames: list[int], body_of: np.ndarray, offsets: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians (m, 3, nv) and drifts (m, 3) of m points on several bodies: point i is fixed in the
     body of frame id frames[body_of[i]], at world-frame offset offsets[i] (m) from its origin. One frame
     Jacobian, velocity and acceleration per body from Pinocchio, then all points in one kernel.
@@ -24,8 +25,12 @@ def bodies_points_kinematics(model: pin.Model, data: pin.Data, frames: list[int]
     """
     J6 = np.array([pin.getFrameJacobian(model, data, frame, LWA) for frame in frames])  # (bodies, 6, nv)
     omega = np.array([pin.getFrameVelocity(model, data, frame, LWA).angular for frame in frames])
-    acceleration = np.array([pin.getFrameClassicalAcceleration(model, data, frame, LWA).vector for frame in frames])
-    return kernels.points_kinematics(J6, omega, acceleration, body_of, np.ascontiguousarray(offsets, dtype=float))
+    acceleration = np.array(
+        [pin.getFrameClassicalAcceleration(model, data, frame, LWA).vector for frame in frames]
+    )
+    return kernels.points_kinematics(
+        J6, omega, acceleration, body_of, np.ascontiguousarray(offsets, dtype=float)
+    )
 
 
 @dataclass

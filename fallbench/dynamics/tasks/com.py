@@ -13,7 +13,9 @@ class ComTask:
     target: np.ndarray  # m, world
 
     @staticmethod
-    def state(model: pin.Model, data: pin.Data, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def state(
+        model: pin.Model, data: pin.Data, q: np.ndarray, v: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(CoM position, CoM velocity, drift J_dot v) from one pass with zero acceleration."""
         pin.centerOfMass(model, data, q, v, np.zeros(model.nv))
         return data.com[0].copy(), data.vcom[0].copy(), data.acom[0].copy()

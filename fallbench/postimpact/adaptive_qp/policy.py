@@ -20,14 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from fallbench.postimpact.adaptive_qp.qp import QPConfig, solve_step
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.dynamics.tasks.com import ComTask
+from fallbench.postimpact.adaptive_qp.qp import QPConfig, solve_step
 from fallbench.postimpact.base import GainPolicy
-from fallbench.sim.controllers import Observation
 from fallbench.scenario import Scenario
+from fallbench.sim.controllers import Observation
 from fallbench.sim.servo import ServoCommand
 from fallbench.sim.world import World
 
@@ -42,7 +42,13 @@ class AdaptiveQPPolicy(GainPolicy):
         super().__init__(world, scenario)
         self.config = QPConfig(**self.params)
         self.P = pinocchio_for(world)
-        self.qp = make_solver(self.config.solver, self.config.eps_abs, self.config.max_iter, self.config.max_iter_in, warm_start=True)
+        self.qp = make_solver(
+            self.config.solver,
+            self.config.eps_abs,
+            self.config.max_iter,
+            self.config.max_iter_in,
+            warm_start=True,
+        )
         self.com_ref: np.ndarray | None = None
         self.kp, self.kd = self.default_kp.copy(), self.default_kd.copy()
         self.selected = np.zeros(len(world.joint_names), dtype=bool)  # grows, never shrinks
@@ -65,10 +71,30 @@ class AdaptiveQPPolicy(GainPolicy):
             e, e_dot = q_ref - observation.q, -observation.qd
             limit = self.world.torque_limit
             held = np.clip(self.kp * e + self.kd * e_dot, -limit, limit)
-            result, problem = solve_step(self.qp, self.P, q, v, points, selected, q_ref, self.com_ref, e, e_dot, held,
-                                         limit, self.scenario.control_dt, self.config)
-            record.update(qp_solved=float(result.solved), qp_iterations=result.iterations, qp_model_ms=result.model_ms,
-                          qp_build_ms=result.build_ms, qp_solve_ms=result.solve_ms, qp_selected=len(selected))
+            result, problem = solve_step(
+                self.qp,
+                self.P,
+                q,
+                v,
+                points,
+                selected,
+                q_ref,
+                self.com_ref,
+                e,
+                e_dot,
+                held,
+                limit,
+                self.scenario.control_dt,
+                self.config,
+            )
+            record.update(
+                qp_solved=float(result.solved),
+                qp_iterations=result.iterations,
+                qp_model_ms=result.model_ms,
+                qp_build_ms=result.build_ms,
+                qp_solve_ms=result.solve_ms,
+                qp_selected=len(selected),
+            )
             if result.solved:
                 # clip the solver's tolerance-sized excursions (~1e-3) below zero
                 self.kp[selected] = np.maximum(result.K, 0.0)

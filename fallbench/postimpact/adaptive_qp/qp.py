@@ -117,19 +117,33 @@ def variable_scale(n_lambda: int, e: np.ndarray, e_dot: np.ndarray) -> np.ndarra
     return scale
 
 
-def acceleration_map(P: PinocchioModel, terms: ModelTerms, selected: np.ndarray, e: np.ndarray, e_dot: np.ndarray,
-                     held_torque: np.ndarray) -> AccelerationMap:
+def acceleration_map(
+    P: PinocchioModel,
+    terms: ModelTerms,
+    selected: np.ndarray,
+    e: np.ndarray,
+    e_dot: np.ndarray,
+    held_torque: np.ndarray,
+) -> AccelerationMap:
     """q_ddot = M (lambda, K_S, B_S) + m from eq. 10 with the non-selected torques known (eq. 15)."""
     assert terms.H_inv is not None, "model_terms(..., inverse=True)"
-    M, m = _eliminated_accelerations(terms.H_inv, terms.contacts.force_map, P.actuated_v, selected, e, e_dot,
-                                     held_torque, terms.C)
+    M, m = _eliminated_accelerations(
+        terms.H_inv, terms.contacts.force_map, P.actuated_v, selected, e, e_dot, held_torque, terms.C
+    )
     return AccelerationMap(M, m)
 
 
 @compiled
-def _eliminated_accelerations(H_inv: np.ndarray, force_map: np.ndarray, actuated_v: np.ndarray, selected: np.ndarray,
-                              e: np.ndarray, e_dot: np.ndarray, held_torque: np.ndarray,
-                              C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _eliminated_accelerations(
+    H_inv: np.ndarray,
+    force_map: np.ndarray,
+    actuated_v: np.ndarray,
+    selected: np.ndarray,
+    e: np.ndarray,
+    e_dot: np.ndarray,
+    held_torque: np.ndarray,
+    C: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """M = H^-1 [J'G, S_S' diag(e_S), S_S' diag(e_dot_S)], m = H^-1 (S_NS' tau_NS - C)."""
     nv, n_l, n_s = len(C), force_map.shape[1], len(selected)
     M = np.empty((nv, n_l + 2 * n_s))
@@ -146,13 +160,29 @@ def _eliminated_accelerations(H_inv: np.ndarray, force_map: np.ndarray, actuated
     return M, H_inv @ (held - C)
 
 
-def _tasks(P: PinocchioModel, terms: ModelTerms, points: ContactSet, q_ref: np.ndarray, com_ref: np.ndarray,
-           dt: float, config: QPConfig) -> list[SetPoint]:
+def _tasks(
+    P: PinocchioModel,
+    terms: ModelTerms,
+    points: ContactSet,
+    q_ref: np.ndarray,
+    com_ref: np.ndarray,
+    dt: float,
+    config: QPConfig,
+) -> list[SetPoint]:
     q_joints = terms.q[7:][P.actuated_v - 6]
     tasks = [
-        SetPoint(config.w_posture, None, q_joints - q_ref, np.zeros(len(q_ref)), config.posture_kp, config.posture_kv,
-                 rows=P.actuated_v),
-        SetPoint(config.w_com, terms.J_com, terms.com - com_ref, terms.com_drift, config.com_kp, config.com_kv),
+        SetPoint(
+            config.w_posture,
+            None,
+            q_joints - q_ref,
+            np.zeros(len(q_ref)),
+            config.posture_kp,
+            config.posture_kv,
+            rows=P.actuated_v,
+        ),
+        SetPoint(
+            config.w_com, terms.J_com, terms.com - com_ref, terms.com_drift, config.com_kp, config.com_kv
+        ),
         *tangential_motion_cost(terms.contacts, config.w_tangential, dt),
     ]
     if config.w_balance > 0 and len(points):
@@ -161,13 +191,33 @@ def _tasks(P: PinocchioModel, terms: ModelTerms, points: ContactSet, q_ref: np.n
         omega = math.sqrt(GRAVITY / max(terms.com[2] - float(points.positions[:, 2].min()), 0.1))
         centre = points.positions.mean(axis=0)
         k = config.balance_rate
-        tasks.append(SetPoint(config.w_balance, terms.J_com[:2], (terms.com - centre)[:2], terms.com_drift[:2], omega * k, omega + k))
+        tasks.append(
+            SetPoint(
+                config.w_balance,
+                terms.J_com[:2],
+                (terms.com - centre)[:2],
+                terms.com_drift[:2],
+                omega * k,
+                omega + k,
+            )
+        )
     return tasks
 
 
-def build_problem(P: PinocchioModel, terms: ModelTerms, points: ContactSet, selected: np.ndarray,
-                  q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray, held_torque: np.ndarray,
-                  torque_limit: np.ndarray, dt: float, config: QPConfig) -> QPProblem:
+def build_problem(
+    P: PinocchioModel,
+    terms: ModelTerms,
+    points: ContactSet,
+    selected: np.ndarray,
+    q_ref: np.ndarray,
+    com_ref: np.ndarray,
+    e: np.ndarray,
+    e_dot: np.ndarray,
+    held_torque: np.ndarray,
+    torque_limit: np.ndarray,
+    dt: float,
+    config: QPConfig,
+) -> QPProblem:
     """The QP at one state; e, e_dot (rad, rad/s), held_torque (Nm, used for the motors not
     selected) and torque_limit per actuator (MuJoCo order); dt the control period (s)."""
     n_l, n_s = terms.contacts.force_map.shape[1], len(selected)
@@ -201,19 +251,48 @@ def build_problem(P: PinocchioModel, terms: ModelTerms, points: ContactSet, sele
     return QPProblem(**vars(problem), n_lambda=n_l, selected=selected, acceleration=acceleration)
 
 
-def solve_step(qp: QPSolver, P: PinocchioModel, q: np.ndarray, v: np.ndarray, points: ContactSet,
-               selected: np.ndarray, q_ref: np.ndarray, com_ref: np.ndarray, e: np.ndarray, e_dot: np.ndarray,
-               held_torque: np.ndarray, torque_limit: np.ndarray, dt: float, config: QPConfig) -> tuple[QPResult, QPProblem]:
+def solve_step(
+    qp: QPSolver,
+    P: PinocchioModel,
+    q: np.ndarray,
+    v: np.ndarray,
+    points: ContactSet,
+    selected: np.ndarray,
+    q_ref: np.ndarray,
+    com_ref: np.ndarray,
+    e: np.ndarray,
+    e_dot: np.ndarray,
+    held_torque: np.ndarray,
+    torque_limit: np.ndarray,
+    dt: float,
+    config: QPConfig,
+) -> tuple[QPResult, QPProblem]:
     started = time.perf_counter()
     terms = model_terms(P, q, v, points)
     modelled = time.perf_counter()
-    problem = build_problem(P, terms, points, selected, q_ref, com_ref, e, e_dot, held_torque, torque_limit, dt, config)
+    problem = build_problem(
+        P, terms, points, selected, q_ref, com_ref, e, e_dot, held_torque, torque_limit, dt, config
+    )
     built = time.perf_counter()
     status, solved, iterations, y = qp.solve(problem)
     solved_at = time.perf_counter()
     n_l, n_s = problem.n_lambda, len(selected)
     finite = bool(np.isfinite(y).all())  # a failed solve may return no iterate at all
-    qdd = problem.acceleration.M @ y + problem.acceleration.m if finite else np.full(len(problem.acceleration.m), np.nan)
-    result = QPResult(status, solved and finite, iterations, qdd, y[:n_l], y[n_l : n_l + n_s], y[n_l + n_s :],
-                      (modelled - started) * 1e3, (built - modelled) * 1e3, (solved_at - built) * 1e3)
+    qdd = (
+        problem.acceleration.M @ y + problem.acceleration.m
+        if finite
+        else np.full(len(problem.acceleration.m), np.nan)
+    )
+    result = QPResult(
+        status,
+        solved and finite,
+        iterations,
+        qdd,
+        y[:n_l],
+        y[n_l : n_l + n_s],
+        y[n_l + n_s :],
+        (modelled - started) * 1e3,
+        (built - modelled) * 1e3,
+        (solved_at - built) * 1e3,
+    )
     return result, problem

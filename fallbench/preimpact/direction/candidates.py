@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallbench.sim.events import capture_point, support_polygon
 from fallbench.preimpact.direction.geometry import Circle
 from fallbench.preimpact.direction.pendulum import Rollout, rollout
 from fallbench.preimpact.direction.support import contains, nearest_pivot
+from fallbench.sim.events import capture_point, support_polygon
 
 
 @dataclass(frozen=True)
@@ -25,7 +25,9 @@ class StepGrid:
     radii: np.ndarray  # m, step lengths from the swing foot's current centre
     headings: np.ndarray  # rad, world
     foot_speed: float  # m/s, mean swing-foot speed
-    min_separation: float  # m from the stance foot's centre to the target, across (toward the swing foot's side)
+    min_separation: (
+        float  # m from the stance foot's centre to the target, across (toward the swing foot's side)
+    )
     max_separation: float  # m, the maximum leg spread
 
 
@@ -53,7 +55,9 @@ class FallState:
     touchdown_height: float  # m above the floor
 
 
-def predict(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, state: FallState) -> tuple[Rollout, np.ndarray]:
+def predict(
+    polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, state: FallState
+) -> tuple[Rollout, np.ndarray]:
     """Pendulum rollouts about each polygon's pivot; and whether the fall stops on the polygon: the
     capture point is inside it, or the pendulum swings back across its pivot, over the polygon (a
     rigid body standing on a polygon cannot tip about an edge into its own sole: it settles on it;
@@ -76,20 +80,27 @@ def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:
     return all(float(np.linalg.norm(point - c.centre)) > c.radius + reach for c in objects)
 
 
-def step_targets(soles: dict[str, np.ndarray], swing: str, grid: StepGrid, objects: list[Circle]) -> list[np.ndarray]:
+def step_targets(
+    soles: dict[str, np.ndarray], swing: str, grid: StepGrid, objects: list[Circle]
+) -> list[np.ndarray]:
     """Grid targets for the swing foot's centre within the leg spread, on the swing foot's own side
     of the stance foot (no crossing of the legs) and clear of the objects."""
     stance = next(s for s in soles if s != swing)
     centre, other = soles[swing].mean(axis=0), soles[stance].mean(axis=0)
-    side = (centre - other) / float(np.linalg.norm(centre - other))  # from the stance foot toward the swing foot
+    side = (centre - other) / float(
+        np.linalg.norm(centre - other)
+    )  # from the stance foot toward the swing foot
     reach = float(np.max(np.linalg.norm(soles[swing] - centre, axis=1)))
     targets = []
     for r in grid.radii:
         for heading in grid.headings:
             target = centre + r * np.array([math.cos(heading), math.sin(heading)])
             offset = target - other
-            if (float(offset @ side) >= grid.min_separation and float(np.linalg.norm(offset)) <= grid.max_separation
-                    and clear_of(target, reach, objects)):
+            if (
+                float(offset @ side) >= grid.min_separation
+                and float(np.linalg.norm(offset)) <= grid.max_separation
+                and clear_of(target, reach, objects)
+            ):
                 targets.append(target)
     return targets
 
@@ -101,8 +112,9 @@ def landed_states(lifted: Rollout, index: int, travel: np.ndarray) -> tuple[np.n
     return lifted.com[index, at], lifted.velocity[index, at]
 
 
-def step_directions(polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, origin: np.ndarray,
-                    state: FallState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def step_directions(
+    polygons: list[np.ndarray], coms: np.ndarray, velocities: np.ndarray, origin: np.ndarray, state: FallState
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(directions rad from `origin`, fall times s after landing, capture point inside) of falls that
     continue on each step's new polygon from its landing state."""
     roll, inside = predict(polygons, coms, velocities, state)
@@ -110,12 +122,17 @@ def step_directions(polygons: list[np.ndarray], coms: np.ndarray, velocities: np
     return np.arctan2(end[:, 1], end[:, 0]) % (2 * math.pi), roll.time, inside
 
 
-def evaluate(soles: dict[str, np.ndarray], state: FallState, grid: StepGrid, objects: list[Circle]) -> tuple[list[Candidate], Rollout]:
+def evaluate(
+    soles: dict[str, np.ndarray], state: FallState, grid: StepGrid, objects: list[Circle]
+) -> tuple[list[Candidate], Rollout]:
     """Every candidate with its predicted direction and fall time (scores are set by the caller),
     and the rollouts of No Action and Lift a Leg (a step falls like Lift a Leg until it lands)."""
     both = support_polygon(np.vstack(list(soles.values())))
     fixed = [Candidate("no_action", None, None, both)]
-    fixed += [Candidate("lift_leg", side, None, soles[other]) for side, other in (("left", "right"), ("right", "left"))]
+    fixed += [
+        Candidate("lift_leg", side, None, soles[other])
+        for side, other in (("left", "right"), ("right", "left"))
+    ]
     start = np.repeat(state.com[None], len(fixed), axis=0)
     start_v = np.repeat(state.velocity[None], len(fixed), axis=0)
     fixed_roll, fixed_inside = predict([c.polygon for c in fixed], start, start_v, state)
@@ -129,14 +146,30 @@ def evaluate(soles: dict[str, np.ndarray], state: FallState, grid: StepGrid, obj
         assert swing is not None
         stance = next(s for s in soles if s != swing)
         centre = soles[swing].mean(axis=0)
-        targets = [t for t in step_targets(soles, swing, grid, objects) if np.linalg.norm(t - centre) / grid.foot_speed <= deadline]
+        targets = [
+            t
+            for t in step_targets(soles, swing, grid, objects)
+            if np.linalg.norm(t - centre) / grid.foot_speed <= deadline
+        ]
         if not targets:
             continue
         travel = np.array([float(np.linalg.norm(t - centre)) / grid.foot_speed for t in targets])
-        side = [Candidate("take_step", swing, t, support_polygon(np.vstack([soles[stance], soles[swing] + (t - centre)]))) for t in targets]
+        side = [
+            Candidate(
+                "take_step",
+                swing,
+                t,
+                support_polygon(np.vstack([soles[stance], soles[swing] + (t - centre)])),
+            )
+            for t in targets
+        ]
         coms, vels = landed_states(fixed_roll, k, travel)
         directions, times, inside = step_directions([c.polygon for c in side], coms, vels, state.com, state)
         for j, candidate in enumerate(side):
-            candidate.direction, candidate.fall_time, candidate.capturing = float(directions[j]), travel[j] + float(times[j]), bool(inside[j])
+            candidate.direction, candidate.fall_time, candidate.capturing = (
+                float(directions[j]),
+                travel[j] + float(times[j]),
+                bool(inside[j]),
+            )
         steps += side
     return fixed + steps, fixed_roll

@@ -25,14 +25,18 @@ class DirectionConfig:
     step_radius_max: float = 0.6  # m
     step_radius_step: float = 0.05  # m
     step_heading_step: float = 15.0  # deg
-    min_foot_separation: float = 0.15  # m: the target stays this far on the swing foot's side of the stance foot
+    min_foot_separation: float = (
+        0.15  # m: the target stays this far on the swing foot's side of the stance foot
+    )
     foot_speed: float = 1.0  # m/s, mean swing-foot speed (reachability) and its cap
     step_gain: float = 20.0  # 1/s, eq. 5
     inertia_gain: float = 10.0  # 1/s, eqs. 6 and 8
     damping: float = 1e-3  # damped pseudo-inverses
     step_tolerance: float = 0.05  # m: the foot starts down within half of this from its target; a step is complete when it lands within this
     allow_capture: bool = False  # keep steps whose polygon holds the capture point (004's falls are certain)
-    tracking: bool = True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
+    tracking: bool = (
+        True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
+    )
     tracking_period: float = 0.02  # s between tracking predictions
 
     @property

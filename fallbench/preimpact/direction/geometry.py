@@ -74,12 +74,16 @@ def object_circle(obstacle: Box | Cylinder) -> Circle:
     return Circle(centre, 0.5 * math.hypot(obstacle.size[0], obstacle.size[1]))
 
 
-def grown_circles(obstacles: list[Box | Cylinder], origin: np.ndarray, robot_radius: float,
-                  consider_distance: float) -> list[Circle]:
+def grown_circles(
+    obstacles: list[Box | Cylinder], origin: np.ndarray, robot_radius: float, consider_distance: float
+) -> list[Circle]:
     """Objects within `consider_distance` (m, centre to origin) grown by the robot radius."""
     circles = [object_circle(o) for o in obstacles]
-    return [Circle(c.centre, c.radius + robot_radius) for c in circles
-            if float(np.linalg.norm(c.centre - origin[:2])) <= consider_distance]
+    return [
+        Circle(c.centre, c.radius + robot_radius)
+        for c in circles
+        if float(np.linalg.norm(c.centre - origin[:2])) <= consider_distance
+    ]
 
 
 def blocked_cone(circle: Circle, origin: np.ndarray) -> Cone:
@@ -108,13 +112,15 @@ def safe_regions(circles: list[Circle], origin: np.ndarray) -> list[SafeRegion]:
             merged[-1][1] = max(merged[-1][1], hi)
         else:
             merged.append([lo, hi])
-    while len(merged) > 1 and merged[-1][1] - TWO_PI >= merged[0][0]:  # the last interval wraps onto the first
+    while (
+        len(merged) > 1 and merged[-1][1] - TWO_PI >= merged[0][0]
+    ):  # the last interval wraps onto the first
         first = merged.pop(0)
         merged[-1][1] = max(merged[-1][1], first[1] + TWO_PI)
     if merged[-1][1] - merged[0][0] >= TWO_PI:
         return []
     regions = []
-    for k, (lo, hi) in enumerate(merged):
+    for k, (_, hi) in enumerate(merged):
         next_lo = merged[k + 1][0] if k + 1 < len(merged) else merged[0][0] + TWO_PI
         if next_lo > hi:
             regions.append(SafeRegion(wrap(base + hi), next_lo - hi))

@@ -33,7 +33,9 @@ def _skew(w: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
-def inertia_about(model: pin.Model, data: pin.Data, q: np.ndarray, v: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def inertia_about(
+    model: pin.Model, data: pin.Data, q: np.ndarray, v: np.ndarray, point: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(I^P (3, 3) kg m^2, L_P (3,) kg m^2/s angular momentum about P). Runs ccrba: fills data.com,
     data.hg, data.Ig and the world-frame subtree inertias data.oYcrb."""
     pin.ccrba(model, data, q, v)
@@ -53,12 +55,16 @@ def _moving_part(data: pin.Data, joint: int, anchored: bool) -> tuple[float, np.
     total = data.oYcrb[1]
     mass = total.mass - sub.mass
     moment = total.mass * total.lever - sub.mass * sub.lever
-    about_origin = (total.inertia + total.mass * point_mass_term(total.lever)) - (sub.inertia + sub.mass * point_mass_term(sub.lever))
+    about_origin = (total.inertia + total.mass * point_mass_term(total.lever)) - (
+        sub.inertia + sub.mass * point_mass_term(sub.lever)
+    )
     com = moment / mass
     return mass, com, about_origin - mass * point_mass_term(com)
 
 
-def inertia_jacobian(model: pin.Model, data: pin.Data, point: np.ndarray, anchored_joints: set[int]) -> np.ndarray:
+def inertia_jacobian(
+    model: pin.Model, data: pin.Data, point: np.ndarray, anchored_joints: set[int]
+) -> np.ndarray:
     """J_I (6, nv - 6): d I_hat / d theta per joint, with the stance foot fixed on the ground.
 
     Needs inertia_about (ccrba) and computeJointJacobians at the same q. `anchored_joints`: the
@@ -67,13 +73,19 @@ def inertia_jacobian(model: pin.Model, data: pin.Data, point: np.ndarray, anchor
     for joint in range(2, model.njoints):
         index = model.joints[joint].idx_v
         anchored = joint in anchored_joints
-        twist = data.J[:, index] * (-1.0 if anchored else 1.0)  # world frame, at the origin: (linear, angular)
+        twist = data.J[:, index] * (
+            -1.0 if anchored else 1.0
+        )  # world frame, at the origin: (linear, angular)
         linear, angular = twist[:3], twist[3:]
         mass, com, inertia = _moving_part(data, joint, anchored)
         offset = com - point
         velocity = linear + cross(angular, com)
         turn = _skew(angular) @ inertia - inertia @ _skew(angular)
-        shift = mass * (2.0 * float(offset @ velocity) * np.eye(3) - np.outer(velocity, offset) - np.outer(offset, velocity))
+        shift = mass * (
+            2.0 * float(offset @ velocity) * np.eye(3)
+            - np.outer(velocity, offset)
+            - np.outer(offset, velocity)
+        )
         columns[:, index - 6] = to_vector(turn + shift)
     return columns
 
@@ -99,7 +111,9 @@ def damped_solve(jacobian: np.ndarray, target: np.ndarray, damping: float) -> np
     return jacobian.T @ np.linalg.solve(gram, target)
 
 
-def damped_solve_holding(jacobian: np.ndarray, target: np.ndarray, held: np.ndarray, damping: float) -> np.ndarray:
+def damped_solve_holding(
+    jacobian: np.ndarray, target: np.ndarray, held: np.ndarray, damping: float
+) -> np.ndarray:
     """J^# target among the velocities that keep `held` (k, n) still: x = N (J N)^# target with N
     the projector onto held's null space (both feet on the ground: their relative twist stays zero)."""
     null = np.eye(held.shape[1]) - np.linalg.pinv(held, rcond=1e-8) @ held

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 CLEARANCE_RANGE = 2.0  # m: distances beyond this are reported as this
 
 
-def com_path(rec: "Recording", every: int = 1) -> np.ndarray:
+def com_path(rec: Recording, every: int = 1) -> np.ndarray:
     """(samples, 3) whole-robot CoM, m, world, from the recorded states."""
     model, world = rec.world.model, rec.world
     data = mujoco.MjData(model)
@@ -35,7 +35,7 @@ def com_path(rec: "Recording", every: int = 1) -> np.ndarray:
     return path
 
 
-def clearance(rec: "Recording", sample: int) -> float:
+def clearance(rec: Recording, sample: int) -> float:
     """Smallest distance (m) between the robot's geoms and the obstacles at one recorded sample;
     0 or less when touching."""
     model = rec.world.model
@@ -45,11 +45,17 @@ def clearance(rec: "Recording", sample: int) -> float:
     obstacles = [g for g in range(model.ngeom) if model.geom(g).name.startswith("obstacle_")]
     robot = [g for g in range(model.ngeom) if model.geom_bodyid[g] != 0]
     fromto = np.zeros(6)
-    return min((mujoco.mj_geomDistance(model, data, g, o, CLEARANCE_RANGE, fromto) for o in obstacles for g in robot),
-               default=math.nan)
+    return min(
+        (
+            mujoco.mj_geomDistance(model, data, g, o, CLEARANCE_RANGE, fromto)
+            for o in obstacles
+            for g in robot
+        ),
+        default=math.nan,
+    )
 
 
-def obstacle_metrics(rec: "Recording", origin_time: float | None) -> dict[str, Any]:
+def obstacle_metrics(rec: Recording, origin_time: float | None) -> dict[str, Any]:
     """obstacle_hit, obstacle_clearance_at_impact, actual fall direction and whether it lies in a
     safe region, n_safe_regions; origin_time: s, the control (or fall) trigger."""
     world, scenario = rec.world, rec.scenario
@@ -57,22 +63,36 @@ def obstacle_metrics(rec: "Recording", origin_time: float | None) -> dict[str, A
     found = [world.sensor(rec.sensordata, name)[:, 0] > 0 for name in world.obstacle_sensors]
     row: dict[str, Any] = {"obstacle_hit": bool(any(f.any() for f in found))}
     impact = rec.impact_events[0].t if rec.impact_events else rec.time[-1]
-    row["obstacle_clearance_at_impact"] = clearance(rec, min(int(np.searchsorted(rec.time, impact)), len(rec.time) - 1))
-    nan = {"actual_fall_direction_deg": math.nan, "actual_in_safe_region": False, "actual_score": math.nan, "n_safe_regions": -1,
-           "actual_fall_end": ""}
+    row["obstacle_clearance_at_impact"] = clearance(
+        rec, min(int(np.searchsorted(rec.time, impact)), len(rec.time) - 1)
+    )
+    nan = {
+        "actual_fall_direction_deg": math.nan,
+        "actual_in_safe_region": False,
+        "actual_score": math.nan,
+        "n_safe_regions": -1,
+        "actual_fall_end": "",
+    }
     if origin_time is None or not math.isfinite(origin_time):
         return row | nan
     every = max(round(scenario.control_dt / scenario.physics_dt), 1)
     path = com_path(rec, every)
     start = min(int(np.searchsorted(rec.time[::every], origin_time)), len(path) - 1)
-    touched = np.flatnonzero(np.any(found, axis=0)) // every if found else np.zeros(0, dtype=int)  # samples at or before a contact
+    touched = (
+        np.flatnonzero(np.any(found, axis=0)) // every if found else np.zeros(0, dtype=int)
+    )  # samples at or before a contact
     touched = touched[touched > start]
-    end, row["actual_fall_end"] = _fall_end(path, start, int(touched[0]) if len(touched) else None,
-                                            config.touchdown_fraction * path[0, 2])
+    end, row["actual_fall_end"] = _fall_end(
+        path, start, int(touched[0]) if len(touched) else None, config.touchdown_fraction * path[0, 2]
+    )
     origin = path[start, :2]
     delta = path[end, :2] - origin
-    regions = safe_regions(grown_circles(scenario.obstacles, origin, config.robot_radius,
-                                         config.consider_factor * config.robot_height), origin)
+    regions = safe_regions(
+        grown_circles(
+            scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height
+        ),
+        origin,
+    )
     direction = math.atan2(delta[1], delta[0]) % (2 * math.pi)
     row["actual_fall_direction_deg"] = math.degrees(direction)
     row["actual_in_safe_region"] = any(r.contains(direction) for r in regions)
@@ -81,7 +101,9 @@ def obstacle_metrics(rec: "Recording", origin_time: float | None) -> dict[str, A
     return row
 
 
-def _fall_end(path: np.ndarray, start: int, first_touch: int | None, touchdown_height: float) -> tuple[int, str]:
+def _fall_end(
+    path: np.ndarray, start: int, first_touch: int | None, touchdown_height: float
+) -> tuple[int, str]:
     """(sample, why) where the fall direction is read: the CoM down to `touchdown_height` ("touchdown"),
     or the first contact with an object (sample `first_touch`) if earlier ("object": a fall deflected
     by an object is not a fall in the direction it ends in), else the run's last sample ("run_end",

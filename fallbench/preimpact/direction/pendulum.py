@@ -48,8 +48,16 @@ def _acceleration(p: np.ndarray, v: np.ndarray) -> np.ndarray:
     return GRAVITY - radial - p * speed2 / length2
 
 
-def rollout(pivots: np.ndarray, edges: np.ndarray, com: np.ndarray, velocity: np.ndarray, floor_z: float,
-            touchdown_height: float, dt: float = 0.01, max_time: float = 2.0) -> Rollout:
+def rollout(
+    pivots: np.ndarray,
+    edges: np.ndarray,
+    com: np.ndarray,
+    velocity: np.ndarray,
+    floor_z: float,
+    touchdown_height: float,
+    dt: float = 0.01,
+    max_time: float = 2.0,
+) -> Rollout:
     """n pendulum falls. pivots (n, 2) m; edges (n, 2) unit edge directions, zero rows for a vertex;
     com, velocity (n, 3) start states (m, m/s); touchdown when the CoM is `touchdown_height` (m)
     above the floor at `floor_z`."""
@@ -59,9 +67,13 @@ def rollout(pivots: np.ndarray, edges: np.ndarray, com: np.ndarray, velocity: np
     p = com - origin
     v = velocity.copy()
     hinged = np.linalg.norm(axis, axis=1) > 0.5
-    p[hinged] -= axis[hinged] * np.einsum("ij,ij->i", p[hinged], axis[hinged])[:, None]  # pivot at the CoM's foot on the edge
+    p[hinged] -= (
+        axis[hinged] * np.einsum("ij,ij->i", p[hinged], axis[hinged])[:, None]
+    )  # pivot at the CoM's foot on the edge
     v[hinged] -= axis[hinged] * np.einsum("ij,ij->i", v[hinged], axis[hinged])[:, None]
-    v -= p * (np.einsum("ij,ij->i", v, p) / np.einsum("ij,ij->i", p, p))[:, None]  # a rigid rod: no radial speed
+    v -= (
+        p * (np.einsum("ij,ij->i", v, p) / np.einsum("ij,ij->i", p, p))[:, None]
+    )  # a rigid rod: no radial speed
     offset = com - origin - p  # the constant part along the edge
     steps = int(math.ceil(max_time / dt)) + 1
     coms = np.empty((n, steps, 3))

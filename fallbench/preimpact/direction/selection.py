@@ -36,8 +36,15 @@ def _best(candidates: list[Candidate], kind: str) -> Candidate | None:
     return min(members, key=lambda c: c.score) if members else None
 
 
-def choose(candidates: list[Candidate], regions: list[SafeRegion], mode: str = "auto", selection: str = "cascade",
-           w1: float = 0.5, w2: float = 0.5, allow_capture: bool = False) -> Plan:
+def choose(
+    candidates: list[Candidate],
+    regions: list[SafeRegion],
+    mode: str = "auto",
+    selection: str = "cascade",
+    w1: float = 0.5,
+    w2: float = 0.5,
+    allow_capture: bool = False,
+) -> Plan:
     for candidate in candidates:
         candidate.score = score(candidate.direction, regions, w1, w2)
     usable = [c for c in candidates if c.kind == "no_action" or allow_capture or not c.capturing]
@@ -46,9 +53,16 @@ def choose(candidates: list[Candidate], regions: list[SafeRegion], mode: str = "
     if mode == "auto":
         chosen = None
         if selection == "cascade":
-            chosen = next((best for kind in CLASSES if (best := _best(usable, kind)) is not None and best.score <= 1.0), None)
+            chosen = next(
+                (best for kind in CLASSES if (best := _best(usable, kind)) is not None and best.score <= 1.0),
+                None,
+            )
         chosen = chosen or min(usable, key=lambda c: c.score)
-        shaping = "pis" if chosen.kind != "no_action" else ("wbis" if chosen.score > 1.0 and math.isfinite(chosen.score) else "")
+        shaping = (
+            "pis"
+            if chosen.kind != "no_action"
+            else ("wbis" if chosen.score > 1.0 and math.isfinite(chosen.score) else "")
+        )
     else:
         kind = {"take_step_pis": "take_step", "whole_body_is": "no_action"}.get(mode, mode)
         chosen = _best(usable, kind) or no_action

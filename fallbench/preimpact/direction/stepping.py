@@ -14,15 +14,27 @@ from fallbench.preimpact.direction.inertia import damped_solve
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
-def foot_to_foot_jacobian(model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray) -> np.ndarray:
+def foot_to_foot_jacobian(
+    model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray
+) -> np.ndarray:
     """(6, len(columns)): relative twist of the swing foot frame with respect to the stance foot
     frame per joint velocity; `columns` are Pinocchio velocity indices (the base's are 0-5). Needs computeJointJacobians and updateFramePlacements."""
     relative = pin.getFrameJacobian(model, data, swing, LWA) - pin.getFrameJacobian(model, data, stance, LWA)
     return relative[:, columns]
 
 
-def swing_velocity(model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray, target: np.ndarray,
-                   target_rotation: np.ndarray, gain: float, max_speed: float, damping: float) -> np.ndarray:
+def swing_velocity(
+    model: pin.Model,
+    data: pin.Data,
+    swing: int,
+    stance: int,
+    columns: np.ndarray,
+    target: np.ndarray,
+    target_rotation: np.ndarray,
+    gain: float,
+    max_speed: float,
+    damping: float,
+) -> np.ndarray:
     """Joint velocities (rad/s, over `columns`) moving the swing foot frame toward `target` (m, world)
     and `target_rotation`, at `gain` (1/s) and at most `max_speed` (m/s), relative to the stance foot."""
     placement = data.oMf[swing]
@@ -33,4 +45,6 @@ def swing_velocity(model: pin.Model, data: pin.Data, swing: int, stance: int, co
     angular = gain * pin.log3(target_rotation @ placement.rotation.T)
     # P_dot_L = 0: the stance foot is meant to stay where it is. Feeding back its measured velocity
     # instead would close a loop through our own command (a pushing swing leg lifts the stance foot).
-    return damped_solve(foot_to_foot_jacobian(model, data, swing, stance, columns), np.concatenate([linear, angular]), damping)
+    return damped_solve(
+        foot_to_foot_jacobian(model, data, swing, stance, columns), np.concatenate([linear, angular]), damping
+    )

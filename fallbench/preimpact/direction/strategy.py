@@ -19,13 +19,18 @@ import numpy as np
 import pinocchio as pin
 
 from fallbench.dynamics.model import pinocchio_for
-from fallbench.sim.events import capture_point, support_polygon
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
-from fallbench.preimpact.direction.inertia import (damped_solve, damped_solve_holding, desired_inertia, inertia_about, inertia_jacobian,
-                                                   to_vector)
+from fallbench.preimpact.direction.inertia import (
+    damped_solve,
+    damped_solve_holding,
+    desired_inertia,
+    inertia_about,
+    inertia_jacobian,
+    to_vector,
+)
 from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
 from fallbench.preimpact.direction.stepping import foot_to_foot_jacobian, swing_velocity
@@ -33,11 +38,13 @@ from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
 from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.preimpact.direction.trigger import ControlTrigger
 from fallbench.scenario import Scenario
+from fallbench.sim.events import capture_point, support_polygon
 from fallbench.sim.servo import ServoCommand
 from fallbench.sim.world import World
 
 if TYPE_CHECKING:
     from fallbench.sim.recorder import Recording
+
 
 def _yaw_only(rotation: np.ndarray) -> np.ndarray:
     yaw = math.atan2(rotation[1, 0], rotation[0, 0])
@@ -57,17 +64,27 @@ class DirectionStrategy(Strategy):
         self.feet = world.robot.feet
         self.frames = {side: model.getFrameId(body) for side, body in self.feet.items()}
         self.foot_sensors = {side: self._foot_sensor_columns(world, body) for side, body in self.feet.items()}
-        self.chains = {side: set(model.supports[model.frames[f].parentJoint]) for side, f in self.frames.items()}
-        self.leg_columns = {side: np.array(sorted(model.joints[j].idx_v - 6 for j in chain if j > 1))
-                            for side, chain in self.chains.items()}
+        self.chains = {
+            side: set(model.supports[model.frames[f].parentJoint]) for side, f in self.frames.items()
+        }
+        self.leg_columns = {
+            side: np.array(sorted(model.joints[j].idx_v - 6 for j in chain if j > 1))
+            for side, chain in self.chains.items()
+        }
         every = np.arange(model.nv - 6)
         self.upper_columns = np.setdiff1d(every, np.concatenate(list(self.leg_columns.values())))
         self.speed_limit = model.velocityLimit[6:]
         self.objects = [object_circle(o) for o in scenario.obstacles]
-        self.grid = StepGrid(np.arange(config.step_radius_min, config.step_radius_max + 1e-9, config.step_radius_step),
-                             np.radians(np.arange(0.0, 360.0, config.step_heading_step)), config.foot_speed,
-                             config.min_foot_separation, 2 * config.robot_radius)
-        self.trigger = ControlTrigger(config.trigger_window, config.trigger_tolerance, config.trigger_min_travel, config.trigger_timeout)
+        self.grid = StepGrid(
+            np.arange(config.step_radius_min, config.step_radius_max + 1e-9, config.step_radius_step),
+            np.radians(np.arange(0.0, 360.0, config.step_heading_step)),
+            config.foot_speed,
+            config.min_foot_separation,
+            2 * config.robot_radius,
+        )
+        self.trigger = ControlTrigger(
+            config.trigger_window, config.trigger_tolerance, config.trigger_min_travel, config.trigger_timeout
+        )
         self.plan: Plan | None = None
         self.plan_ms = math.nan
         self.origin = np.zeros(2)
@@ -91,7 +108,9 @@ class DirectionStrategy(Strategy):
         pin.framesForwardKinematics(model, pdata, q)
         self.com_height = float(pin.centerOfMass(model, pdata, q)[2])
         self.standing = {side: pdata.oMf[f].copy() for side, f in self.frames.items()}
-        self.q_ref = data.ctrl.copy()  # the references held so far: the joints stay locked until the control trigger
+        self.q_ref = (
+            data.ctrl.copy()
+        )  # the references held so far: the joints stay locked until the control trigger
         self.qd_ref = np.zeros_like(self.q_ref)
 
     def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None:
@@ -125,13 +144,26 @@ class DirectionStrategy(Strategy):
         started = time.perf_counter()
         config = self.config
         self.origin = com[:2].copy()
-        circles = grown_circles(self.scenario.obstacles, self.origin, config.robot_radius, config.consider_factor * config.robot_height)
+        circles = grown_circles(
+            self.scenario.obstacles,
+            self.origin,
+            config.robot_radius,
+            config.consider_factor * config.robot_height,
+        )
         self.regions = safe_regions(circles, self.origin)
         soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
         self.sole_centres = {side: corners.mean(axis=0) for side, corners in soles.items()}
         state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
         candidates, _ = evaluate(soles, state, self.grid, self.objects)
-        self.plan = choose(candidates, self.regions, config.mode, config.selection, config.w1, config.w2, config.allow_capture)
+        self.plan = choose(
+            candidates,
+            self.regions,
+            config.mode,
+            config.selection,
+            config.w1,
+            config.w2,
+            config.allow_capture,
+        )
         self.plan_ms = (time.perf_counter() - started) * 1e3
 
     # ------------------------------------------------------------------ control
@@ -161,24 +193,44 @@ class DirectionStrategy(Strategy):
             target = home.translation + np.array([0.0, 0.0, config.lift_height])
         else:
             assert chosen.target is not None
-            if self.swing_path is None:  # the sole centre moves to the target: the frame moves by the same horizontal offset
-                self.swing_path = SwingPath(home.translation.copy(), home.translation[:2] + chosen.target - self.sole_centres[swing],
-                                            config.lift_height, 0.5 * config.step_tolerance)
+            if (
+                self.swing_path is None
+            ):  # the sole centre moves to the target: the frame moves by the same horizontal offset
+                self.swing_path = SwingPath(
+                    home.translation.copy(),
+                    home.translation[:2] + chosen.target - self.sole_centres[swing],
+                    config.lift_height,
+                    0.5 * config.step_tolerance,
+                )
             if self.swing_path.landed(position, self._touching(data, swing)):
                 self.step_done = t
                 self.step_error = float(np.linalg.norm(position[:2] - self.swing_path.target_xy))
                 return
             target = self.swing_path.waypoint(position)
         columns = self.leg_columns[swing]
-        qdot[columns] = swing_velocity(model, pdata, frame, self.frames[stance], columns + 6, target, _yaw_only(home.rotation),
-                                       config.step_gain, config.foot_speed, config.damping)
+        qdot[columns] = swing_velocity(
+            model,
+            pdata,
+            frame,
+            self.frames[stance],
+            columns + 6,
+            target,
+            _yaw_only(home.rotation),
+            config.step_gain,
+            config.foot_speed,
+            config.damping,
+        )
 
     def _supporting(self) -> list[str]:
         """The feet on the ground as planned: both, or the stance foot while the other is lifted or
         on its way (a landed step supports again)."""
         assert self.plan is not None
         swing = self.plan.chosen.swing
-        return [side for side in self.feet if side != swing or (self.plan.chosen.kind == "take_step" and self.step_done is not None)]
+        return [
+            side
+            for side in self.feet
+            if side != swing or (self.plan.chosen.kind == "take_step" and self.step_done is not None)
+        ]
 
     def _track(self, t: float, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
         """004 Secs. IV, VI: the strategy runs "in an interactive manner": every `tracking_period` s
@@ -187,7 +239,12 @@ class DirectionStrategy(Strategy):
         down. Forced modes (ablations) run as chosen."""
         plan, config = self.plan, self.config
         assert plan is not None
-        if not config.tracking or config.mode != "auto" or plan.chosen.kind == "no_action" or plan.inertia_shaping == "wbis":
+        if (
+            not config.tracking
+            or config.mode != "auto"
+            or plan.chosen.kind == "no_action"
+            or plan.inertia_shaping == "wbis"
+        ):
             return
         if plan.chosen.kind == "take_step" and self.step_done is None:
             return  # 004 Sec. I-c: whole-body inertia shaping "cannot be launched before foot placement is completed"
@@ -197,12 +254,16 @@ class DirectionStrategy(Strategy):
         state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
         polygon = plan.chosen.polygon
         if plan.chosen.kind == "take_step":  # landed: about the present support
-            polygon = support_polygon(np.vstack([sole_corners(self.world.model, data, body) for body in self.feet.values()]))
+            polygon = support_polygon(
+                np.vstack([sole_corners(self.world.model, data, body) for body in self.feet.values()])
+            )
         directions, _, _ = step_directions([polygon], com[None], com_velocity[None], self.origin, state)
         if score(float(directions[0]), self.regions, config.w1, config.w2) > 1.0:
             plan.inertia_shaping, self.tracking_switch = "wbis", t
 
-    def _shape(self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray) -> None:
+    def _shape(
+        self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray
+    ) -> None:
         """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP.
         J_I holds the stance foot on the ground; with both soles down the shaping also keeps the other
         one where it is (zero foot-to-foot twist, eq. 5's Jacobian): a grounded foot cannot follow a
@@ -214,8 +275,14 @@ class DirectionStrategy(Strategy):
         soles = [sole_corners(self.world.model, data, self.feet[side]) for side in supporting]
         pivot = nearest_pivot(support_polygon(np.vstack(soles)), xi)
         point = np.array([*pivot.point, 0.0])
-        stance = next((s for s in self.frames if s != swing), "left") if swing else min(
-            self.frames, key=lambda s: float(np.linalg.norm(pdata.oMf[self.frames[s]].translation[:2] - pivot.point)))
+        stance = (
+            next((s for s in self.frames if s != swing), "left")
+            if swing
+            else min(
+                self.frames,
+                key=lambda s: float(np.linalg.norm(pdata.oMf[self.frames[s]].translation[:2] - pivot.point)),
+            )
+        )
         inertia, momentum = inertia_about(model, pdata, q, v, point)
         jacobian = inertia_jacobian(model, pdata, point, self.chains[stance])
         error = to_vector(desired_inertia(inertia, momentum, plan.desired)) - to_vector(inertia)
@@ -223,7 +290,11 @@ class DirectionStrategy(Strategy):
             columns, placement = np.arange(model.nv - 6), np.array([], dtype=int)
         else:
             placement = self.leg_columns[plan.chosen.swing]
-            columns = self.upper_columns if plan.chosen.kind == "take_step" else np.setdiff1d(np.arange(model.nv - 6), placement)
+            columns = (
+                self.upper_columns
+                if plan.chosen.kind == "take_step"
+                else np.setdiff1d(np.arange(model.nv - 6), placement)
+            )
         rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
         if swing is None:
             held = foot_to_foot_jacobian(model, pdata, self.frames["right"], self.frames["left"], columns + 6)
@@ -231,7 +302,9 @@ class DirectionStrategy(Strategy):
         else:
             qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
 
-    def _control(self, t: float, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray) -> ServoCommand:
+    def _control(
+        self, t: float, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray
+    ) -> ServoCommand:
         assert self.plan is not None
         qdot = np.zeros(self.P.model.nv - 6)
         if self.plan.chosen.swing is not None and self.step_done is None:
@@ -241,7 +314,9 @@ class DirectionStrategy(Strategy):
             placed = qdot.copy()
             self._shape(data, q, v, xi, qdot)
             shaping = qdot - placed
-            self._within_speed_limits(shaping)  # the foot placement keeps its speed, inertia shaping gets scaled
+            self._within_speed_limits(
+                shaping
+            )  # the foot placement keeps its speed, inertia shaping gets scaled
             qdot = placed + shaping
         world, dt = self.world, self.scenario.control_dt
         self.qd_ref = qdot[self.P.actuated_v - 6]
@@ -259,7 +334,7 @@ class DirectionStrategy(Strategy):
     def stats(self) -> dict[str, Any]:
         return {"direction_step_ms_median": float(np.median(self.step_ms)) if self.step_ms else math.nan}
 
-    def metrics(self, recording: "Recording") -> dict[str, Any]:
+    def metrics(self, recording: Recording) -> dict[str, Any]:
         plan = self.plan
         row: dict[str, Any] = {
             "direction_strategy": plan.label if plan else "",
@@ -269,23 +344,40 @@ class DirectionStrategy(Strategy):
             "direction_tracking_switch_time": self.tracking_switch,
             "predicted_fall_direction_deg": math.degrees(plan.chosen.direction) if plan else math.nan,
             "predicted_score": plan.chosen.score if plan else math.nan,
-            "desired_fall_direction_deg": math.degrees(plan.desired) if plan and plan.desired is not None else math.nan,
+            "desired_fall_direction_deg": math.degrees(plan.desired)
+            if plan and plan.desired is not None
+            else math.nan,
             "direction_origin_x": float(self.origin[0]) if plan else math.nan,
             "direction_origin_y": float(self.origin[1]) if plan else math.nan,
         }
         impacts = [e.t for e in recording.impact_events]
         if plan and plan.chosen.kind == "take_step":
-            row["step_completed"] = (self.step_done is not None and (not impacts or self.step_done <= impacts[0])
-                                     and self.step_error <= self.config.step_tolerance)
+            row["step_completed"] = (
+                self.step_done is not None
+                and (not impacts or self.step_done <= impacts[0])
+                and self.step_error <= self.config.step_tolerance
+            )
             row["step_error"] = self.step_error
             assert plan.chosen.target is not None
             row["step_target_x"], row["step_target_y"] = (float(x) for x in plan.chosen.target)
         if plan:
             best = {}
-            usable = [c for c in plan.candidates if c.kind == "no_action" or self.config.allow_capture or not c.capturing]
+            usable = [
+                c
+                for c in plan.candidates
+                if c.kind == "no_action" or self.config.allow_capture or not c.capturing
+            ]
             for c in sorted(usable, key=lambda c: c.score):
                 best.setdefault(c.name, c)
-            row["direction_candidates"] = json.dumps([{"name": c.name, "deg": round(math.degrees(c.direction), 1),
-                                                       "score": round(c.score, 3) if math.isfinite(c.score) else None,
-                                                       "capturing": c.capturing} for c in best.values()])
+            row["direction_candidates"] = json.dumps(
+                [
+                    {
+                        "name": c.name,
+                        "deg": round(math.degrees(c.direction), 1),
+                        "score": round(c.score, 3) if math.isfinite(c.score) else None,
+                        "capturing": c.capturing,
+                    }
+                    for c in best.values()
+                ]
+            )
         return row

@@ -12,6 +12,7 @@ import numpy as np
 from fallbench.sim.events import support_polygon
 from fallbench.sim.support import body_box_corners, world_corners
 
+
 def sole_corners(model: mujoco.MjModel, data: mujoco.MjData, body: str) -> np.ndarray:
     """(k, 2) ground-plane hull of the foot body's collision geometry (its geoms' bounding-box
     corners), m, world: the sole when the foot is flat."""

@@ -31,7 +31,9 @@ class SwingPath:
         self.lifted = self.lifted or position[2] >= self.home[2] + 0.5 * self.lift_height
         if not self.lifted:
             return np.array([position[0], position[1], self.home[2] + self.lift_height])
-        self.descending = self.descending or float(np.linalg.norm(self.target_xy - position[:2])) <= self.descend_within
+        self.descending = (
+            self.descending or float(np.linalg.norm(self.target_xy - position[:2])) <= self.descend_within
+        )
         return np.array([*self.target_xy, self.home[2] + (0.0 if self.descending else self.lift_height)])
 
     def landed(self, position: np.ndarray, touching: bool) -> bool:

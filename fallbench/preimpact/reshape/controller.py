@@ -24,13 +24,8 @@ import numpy as np
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import make_solver
 from fallbench.dynamics.fall_direction import FallDirection, fall_class, heading
-from fallbench.preimpact.reshape.fall_posture import fall_posture
-from fallbench.preimpact.reshape.landing import Candidate, choose, landing_candidates
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.dynamics.objective import SetPoint
-from fallbench.preimpact.reshape.reach import reach_polyhedra
-from fallbench.preimpact.reshape.qp import build_reshape_problem, solve_reshape
-from fallbench.preimpact.reshape.surfaces import scene_surfaces
 from fallbench.dynamics.tasks.body_point import BodyPoint
 from fallbench.dynamics.tasks.com import ComTask
 from fallbench.dynamics.tasks.posture import PostureTask
@@ -38,10 +33,15 @@ from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, Sur
 from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
 from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.dynamics.terms import model_terms
+from fallbench.dynamics.vectors import UP, cross
+from fallbench.preimpact.reshape.fall_posture import fall_posture
+from fallbench.preimpact.reshape.landing import Candidate, choose, landing_candidates
+from fallbench.preimpact.reshape.qp import build_reshape_problem, solve_reshape
+from fallbench.preimpact.reshape.reach import reach_polyhedra
+from fallbench.preimpact.reshape.surfaces import scene_surfaces
 from fallbench.scenario import Scenario
 from fallbench.sim.servo import ServoCommand
 from fallbench.sim.support import body_box_corners, world_corners
-from fallbench.dynamics.vectors import UP, cross
 from fallbench.sim.world import World
 
 PIVOTS = ("contacts", "knees", "knees_and_buttocks")
@@ -55,7 +55,9 @@ class ReshapeConfig:
     w_landing: float = 10.0  # each wrist toward its BIP, along the surface
     w_relative_distance: float = 10.0
     w_posture: float = 1.0
-    w_leg_posture: float = 10.0  # the posture task's rows of the leg joints: a symmetric crouch, both knees together
+    w_leg_posture: float = (
+        10.0  # the posture task's rows of the leg joints: a symmetric crouch, both knees together
+    )
     # The torso-orientation and wrist-landing tasks move the torso and arms only: the legs follow
     # the posture task alone, symmetric, so that both knees land together (000 Sec. IV-B: the two
     # feet, then the two knees at the same moment; 002 eq. 1's selection matrix S_M).
@@ -75,7 +77,9 @@ class ReshapeConfig:
     w_lambda: float = 1e-6
     w_qdd: float = 1e-4
     w_contact: float = 100.0  # contact points neither sinking in nor lifting off (a cost, not a constraint)
-    pivot: Literal["contacts", "knees", "knees_and_buttocks"] = "contacts"  # the landing search's stick, see _stick
+    pivot: Literal["contacts", "knees", "knees_and_buttocks"] = (
+        "contacts"  # the landing search's stick, see _stick
+    )
     solver: str = "proxsuite"  # or "daqp" (fallbench.dynamics.dense_qp.QP_SOLVERS)
     eps_abs: float = 1e-6  # ProxSuite's absolute tolerance, DAQP's primal tolerance
     # ProxSuite's iteration caps bound its rare very long solves (seen: 49 s with ProxSuite's
@@ -110,12 +114,20 @@ class ReshapeController:
         self.postures = {}  # "side" and "front/back" fall postures
         for kind, bend in (("front/back", self.cfg.knee_bend), ("side", self.cfg.knee_bend_side)):
             target = fall_posture(self.P.model, robot, start, bend)
-            self.postures[kind] = PostureTask(np.array([target[j] for j in world.joint_names]), self.P.actuated_v, self.P.model.nv)
+            self.postures[kind] = PostureTask(
+                np.array([target[j] for j in world.joint_names]), self.P.actuated_v, self.P.model.nv
+            )
         self.wrists = {side: BodyPoint(arm.wrist_frame, np.zeros(3)) for side, arm in robot.arms.items()}
-        self.knees = [BodyPoint(world.model.body(world.model.jnt_bodyid[world.model.joint(j).id]).name, np.zeros(3))
-                      for j in robot.knee_joints]
+        self.knees = [
+            BodyPoint(world.model.body(world.model.jnt_bodyid[world.model.joint(j).id]).name, np.zeros(3))
+            for j in robot.knee_joints
+        ]
         self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
-        leg_joints = [j for root in (leg[0] for leg in robot.legs.values()) for j in self.P.model.subtrees[self.P.model.getJointId(root)]]
+        leg_joints = [
+            j
+            for root in (leg[0] for leg in robot.legs.values())
+            for j in self.P.model.subtrees[self.P.model.getJointId(root)]
+        ]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
         self.legs = np.isin(self.P.actuated_v, self.leg_v)  # actuators of the legs
         self.qp = make_solver(self.cfg.solver, self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
@@ -133,8 +145,14 @@ class ReshapeController:
         self.direction = FallDirection(ComTask.state(self.P.model, self.P.data, pq, pv)[0])
         self.q_ref, self.qd_ref = q.copy(), qd.copy()
 
-    def _landing_tasks(self, t: float, direction: np.ndarray, facing: str, torso_rotation: np.ndarray,
-                       stick: tuple[np.ndarray, float]) -> list[SetPoint]:
+    def _landing_tasks(
+        self,
+        t: float,
+        direction: np.ndarray,
+        facing: str,
+        torso_rotation: np.ndarray,
+        stick: tuple[np.ndarray, float],
+    ) -> list[SetPoint]:
         model, pdata = self.P.model, self.P.data
         lateral = cross(UP, direction)
         support, drop = stick
@@ -142,18 +160,36 @@ class ReshapeController:
         for side, arm in self.world.robot.arms.items():
             shoulder = pdata.oMi[model.getJointId(arm.shoulder_joint)].translation - drop * UP
             pivot = support + float((shoulder - support) @ lateral) * lateral
-            chosen = choose(landing_candidates(pivot, shoulder, direction, self.surfaces, torso_rotation,
-                                               self.reach[f"{side}:{facing}"]))
+            chosen = choose(
+                landing_candidates(
+                    pivot, shoulder, direction, self.surfaces, torso_rotation, self.reach[f"{side}:{facing}"]
+                )
+            )
             if chosen is None:
                 continue
             self.landings.append(Landing(t, side, chosen))
             surface = chosen.surface
-            error, J, drift = SurfacePositionTask(self.wrists[side], chosen.bip, surface.tangents).compute(model, pdata)
-            tasks.append(SetPoint(self.cfg.w_landing, self._select(J), error, drift, self.cfg.task_kp, self.cfg.task_kv))
+            error, J, drift = SurfacePositionTask(self.wrists[side], chosen.bip, surface.tangents).compute(
+                model, pdata
+            )
+            tasks.append(
+                SetPoint(
+                    self.cfg.w_landing, self._select(J), error, drift, self.cfg.task_kp, self.cfg.task_kv
+                )
+            )
             pairs.append(SurfacePair(self.wrists[side], chosen.bip, surface.normal))
         if len(pairs) == 2:
             error, J, drift = RelativeDistanceTask(*pairs).compute(model, pdata)
-            tasks.append(SetPoint(self.cfg.w_relative_distance, self._select(J), error, drift, self.cfg.task_kp, self.cfg.task_kv))
+            tasks.append(
+                SetPoint(
+                    self.cfg.w_relative_distance,
+                    self._select(J),
+                    error,
+                    drift,
+                    self.cfg.task_kp,
+                    self.cfg.task_kv,
+                )
+            )
         return tasks
 
     def step(self, t: float, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> ServoCommand:
@@ -164,16 +200,22 @@ class ReshapeController:
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
         terms = model_terms(self.P, q, v, points, inertia=True, inverse=False)
-        torso_rotation = world.robot.torso_frame(self.P.data.oMf[self.P.frame_id(world.robot.torso_body)].rotation)
+        torso_rotation = world.robot.torso_frame(
+            self.P.data.oMf[self.P.frame_id(world.robot.torso_body)].rotation
+        )
         direction = self.direction.update(terms.com, torso_rotation[:, 2])
         self.classes.append(fall_class(direction, torso_rotation))
         facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"
         lateral_target = cross(UP, direction) * (1.0 if facing == "front" else -1.0)
-        orientation = VectorOrientationTask(world.robot.torso_body, world.robot.torso_axis("left"), lateral_target)
+        orientation = VectorOrientationTask(
+            world.robot.torso_body, world.robot.torso_axis("left"), lateral_target
+        )
         error, J, drift = orientation.compute(model, self.P.data)
         tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
         support = points.positions.mean(axis=0) if len(points) else self._feet_on_ground(data)
-        tasks += self._landing_tasks(t, direction, facing, torso_rotation, self._stick(data, support, direction))
+        tasks += self._landing_tasks(
+            t, direction, facing, torso_rotation, self._stick(data, support, direction)
+        )
         if facing == "back":
             tasks += self._hands_below_butt(data)
         elif len(self.knees) == 2:
@@ -183,22 +225,51 @@ class ReshapeController:
         q_joints = q[7:][self.P.actuated_v - 6]
         posture = self.postures["side" if self.classes[0] in ("left", "right") else "front/back"]
         error = posture.error(q_joints)
-        for rows, weight in ((~self.legs, cfg.w_posture), (self.legs, cfg.w_leg_posture)):  # a selection: velocity rows
-            tasks.append(SetPoint(weight, None, error[rows], posture.drift()[rows], cfg.task_kp, cfg.task_kv, rows=posture.joint_v[rows]))
-        problem = build_reshape_problem(self.P, terms, points, tasks, world.torque_limit, world.joint_range,
-                                        self.scenario.control_dt, cfg.w_lambda, cfg.w_qdd, cfg.w_contact)
+        for rows, weight in (
+            (~self.legs, cfg.w_posture),
+            (self.legs, cfg.w_leg_posture),
+        ):  # a selection: velocity rows
+            tasks.append(
+                SetPoint(
+                    weight,
+                    None,
+                    error[rows],
+                    posture.drift()[rows],
+                    cfg.task_kp,
+                    cfg.task_kv,
+                    rows=posture.joint_v[rows],
+                )
+            )
+        problem = build_reshape_problem(
+            self.P,
+            terms,
+            points,
+            tasks,
+            world.torque_limit,
+            world.joint_range,
+            self.scenario.control_dt,
+            cfg.w_lambda,
+            cfg.w_qdd,
+            cfg.w_contact,
+        )
         solving = time.perf_counter()
         status, solved, accelerations = solve_reshape(self.qp, problem)
         self.solve_ms.append((time.perf_counter() - solving) * 1e3)
         qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
-        self.q_ref = np.clip(self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2, world.joint_range[:, 0], world.joint_range[:, 1])
+        self.q_ref = np.clip(
+            self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2,
+            world.joint_range[:, 0],
+            world.joint_range[:, 1],
+        )
         self.qd_ref = self.qd_ref + qdd * dt
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
 
-    def _stick(self, data: mujoco.MjData, support: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, float]:
+    def _stick(
+        self, data: mujoco.MjData, support: np.ndarray, direction: np.ndarray
+    ) -> tuple[np.ndarray, float]:
         """The stick's ground pivot (002 Sec. IV-B) and the height (m) the robot drops onto it.
 
         `contacts`: the mean of the contact points, no drop, as in 002. `knees`: the point farthest
@@ -227,8 +298,16 @@ class ReshapeController:
         tasks = []
         for wrist in self.wrists.values():
             position, J, drift = wrist.kinematics(self.P.model, self.P.data)
-            tasks.append(SetPoint(self.cfg.w_hands_below_butt, self._select(J[2:3]), np.array([position[2] - target]),
-                                  drift[2:3], self.cfg.task_kp, self.cfg.task_kv))
+            tasks.append(
+                SetPoint(
+                    self.cfg.w_hands_below_butt,
+                    self._select(J[2:3]),
+                    np.array([position[2] - target]),
+                    drift[2:3],
+                    self.cfg.task_kp,
+                    self.cfg.task_kv,
+                )
+            )
         return tasks
 
     def _select(self, jacobian: np.ndarray) -> np.ndarray:
@@ -247,7 +326,9 @@ class ReshapeController:
 
     def bip_before(self, side: str, t: float) -> np.ndarray | None:
         """The BIP last chosen for this wrist at or before time t."""
-        chosen = [landing.candidate.bip for landing in self.landings if landing.side == side and landing.t <= t]
+        chosen = [
+            landing.candidate.bip for landing in self.landings if landing.side == side and landing.t <= t
+        ]
         return chosen[-1] if chosen else None
 
     def stats(self) -> dict[str, Any]:

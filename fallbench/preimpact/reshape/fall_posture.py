@@ -36,7 +36,9 @@ def wrist_up_angle(model: pin.Model, q: np.ndarray, joint: str, hand_frame: str)
     return best
 
 
-def fall_posture(model: pin.Model, robot: RobotDescription, start: dict[str, float], knee_bend: float) -> dict[str, float]:
+def fall_posture(
+    model: pin.Model, robot: RobotDescription, start: dict[str, float], knee_bend: float
+) -> dict[str, float]:
     """Joint name -> target angle (rad) for every joint in `start`."""
     target = dict(start)
     for hip, knee, ankle in zip(*(robot.leg_pitch_joints[k] for k in ("hip", "knee", "ankle"))):
@@ -45,7 +47,9 @@ def fall_posture(model: pin.Model, robot: RobotDescription, start: dict[str, flo
     q = pin.neutral(model)
     for arm in robot.arms.values():
         index = model.joints[model.getJointId(arm.elbow_joint)].idx_q
-        target[arm.elbow_joint] = elbow_angle_max_manipulability(model.lowerPositionLimit[index], model.upperPositionLimit[index])
+        target[arm.elbow_joint] = elbow_angle_max_manipulability(
+            model.lowerPositionLimit[index], model.upperPositionLimit[index]
+        )
     for name, value in target.items():
         q[model.joints[model.getJointId(name)].idx_q] = value
     for arm in robot.arms.values():

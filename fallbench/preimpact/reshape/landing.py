@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fallbench.dynamics.vectors import UP, cross
 from fallbench.preimpact.reshape.reach import ReachPolyhedron
 from fallbench.preimpact.reshape.surfaces import Surface
-from fallbench.dynamics.vectors import UP, cross
 
 LOWEST_ANGLE = -math.pi / 6  # rad below the pivot's horizontal the shoulder may still travel
 
@@ -37,8 +37,9 @@ def rotated(vector: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
     return vector * cos + cross(axis, vector) * sin + axis * (float(axis @ vector) * (1.0 - cos))
 
 
-def circle_plane_crossings(center: np.ndarray, radius: float, direction: np.ndarray,
-                           surface: Surface) -> list[float]:
+def circle_plane_crossings(
+    center: np.ndarray, radius: float, direction: np.ndarray, surface: Surface
+) -> list[float]:
     """Angles phi of the points center + radius (cos phi direction + sin phi up) on the surface's plane."""
     a = radius * float(surface.normal @ direction)
     b = radius * float(surface.normal @ UP)
@@ -50,8 +51,14 @@ def circle_plane_crossings(center: np.ndarray, radius: float, direction: np.ndar
     return sorted({math.remainder(base + spread, 2 * math.pi), math.remainder(base - spread, 2 * math.pi)})
 
 
-def landing_candidates(pivot: np.ndarray, shoulder: np.ndarray, direction: np.ndarray, surfaces: list[Surface],
-                       torso_rotation: np.ndarray, reach: ReachPolyhedron) -> list[Candidate]:
+def landing_candidates(
+    pivot: np.ndarray,
+    shoulder: np.ndarray,
+    direction: np.ndarray,
+    surfaces: list[Surface],
+    torso_rotation: np.ndarray,
+    reach: ReachPolyhedron,
+) -> list[Candidate]:
     """One candidate per surface the shoulder's circle crosses before it ends below the pivot.
 
     `pivot` is the stick's ground contact shifted sideways to this shoulder, so each shoulder
@@ -63,7 +70,11 @@ def landing_candidates(pivot: np.ndarray, shoulder: np.ndarray, direction: np.nd
     tilt_axis = cross(UP, direction)
     candidates = []
     for surface in surfaces:
-        ahead = [phi for phi in circle_plane_crossings(pivot, radius, direction, surface) if LOWEST_ANGLE <= phi <= now]
+        ahead = [
+            phi
+            for phi in circle_plane_crossings(pivot, radius, direction, surface)
+            if LOWEST_ANGLE <= phi <= now
+        ]
         if not ahead:
             continue
         phi = max(ahead)  # the first crossing on the way down

@@ -40,9 +40,18 @@ class ReshapeProblem(ScaledQP):
     n_qdd: int
 
 
-def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactSet, tasks: list[SetPoint],
-                          torque_limit: np.ndarray, joint_range: np.ndarray, dt: float,
-                          w_lambda: float, w_qdd: float, w_contact: float) -> ReshapeProblem:
+def build_reshape_problem(
+    P: PinocchioModel,
+    terms: ModelTerms,
+    points: ContactSet,
+    tasks: list[SetPoint],
+    torque_limit: np.ndarray,
+    joint_range: np.ndarray,
+    dt: float,
+    w_lambda: float,
+    w_qdd: float,
+    w_contact: float,
+) -> ReshapeProblem:
     """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s)."""
     nv = P.model.nv
     assert terms.H is not None, "model_terms(..., inertia=True)"
@@ -52,10 +61,14 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactS
     acceleration = AccelerationMap.first_variables(nv, nv + n_l)
     qp = QPBuilder(acceleration, np.concatenate([np.ones(nv), np.full(n_l, LAMBDA_SCALE)]), terms.v)
 
-    base_rows, base_values, torque_rows, torque_low, torque_high = _dynamics_rows(terms.H, JtG, terms.C, P.actuated_v, torque_limit)
+    base_rows, base_values, torque_rows, torque_low, torque_high = _dynamics_rows(
+        terms.H, JtG, terms.C, P.actuated_v, torque_limit
+    )
     qp.equal(base_rows, base_values)
     qp.within(torque_rows, torque_low, torque_high)
-    qp.bound(qdd, *joint_acceleration_bounds(terms.q, terms.v, P.actuated_v, joint_range, LIMIT_HORIZON_STEPS * dt))
+    qp.bound(
+        qdd, *joint_acceleration_bounds(terms.q, terms.v, P.actuated_v, joint_range, LIMIT_HORIZON_STEPS * dt)
+    )
     qp.bound(lam, 0.0, np.inf)
 
     costs = list(tasks)
@@ -70,8 +83,9 @@ def build_reshape_problem(P: PinocchioModel, terms: ModelTerms, points: ContactS
 
 
 @compiled
-def _dynamics_rows(H: np.ndarray, force_map: np.ndarray, C: np.ndarray, motors: np.ndarray,
-                   torque_limit: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _dynamics_rows(
+    H: np.ndarray, force_map: np.ndarray, C: np.ndarray, motors: np.ndarray, torque_limit: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rows on y = (q_ddot, lambda) of the dynamics H q_ddot + C - J'G lambda = tau: on the floating
     base tau = 0, (H_b, -(J'G)_b) y = -C_b; on the motors |tau| <= tau_max,
     -tau_max - C_m <= (H_m, -(J'G)_m) y <= tau_max - C_m. Returns (base rows, -C_b, motor rows, lower, upper)."""

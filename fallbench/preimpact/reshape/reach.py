@@ -27,7 +27,9 @@ SEED = 0
 @dataclass
 class ReachPolyhedron:
     vertices: np.ndarray  # (n, 3) m, torso frame, centroid at the origin
-    _facets: np.ndarray | None = field(default=None, repr=False)  # (k, 4): outward unit normal n, offset d; inside: n'x + d <= 0
+    _facets: np.ndarray | None = field(
+        default=None, repr=False
+    )  # (k, 4): outward unit normal n, offset d; inside: n'x + d <= 0
 
     def contains(self, offset: np.ndarray) -> bool:
         """Whether `offset` (m, torso frame, from the centroid) lies inside the polyhedron (the convex
@@ -39,12 +41,14 @@ class ReachPolyhedron:
         return bool((self._facets[:, :3] @ offset + self._facets[:, 3] <= FACET_TOLERANCE).all())
 
 
-def sample_wrist_offsets(model: pin.Model, robot: RobotDescription, side: str, samples: int = SAMPLES) -> np.ndarray:
+def sample_wrist_offsets(
+    model: pin.Model, robot: RobotDescription, side: str, samples: int = SAMPLES
+) -> np.ndarray:
     """(samples, 3) wrist - shoulder in the torso frame, arm joints up to the elbow drawn uniformly."""
     arm = robot.arms[side]
     data = model.createData()
     chain = list(model.supports[model.getJointId(arm.elbow_joint)])
-    joints = chain[chain.index(model.getJointId(arm.shoulder_joint)):]  # shoulder .. elbow
+    joints = chain[chain.index(model.getJointId(arm.shoulder_joint)) :]  # shoulder .. elbow
     q = pin.neutral(model)
     rng = np.random.default_rng(SEED)
     torso = model.getFrameId(robot.torso_body)
@@ -70,7 +74,9 @@ def _hull_vertices(points: np.ndarray) -> np.ndarray:
 
 def _cache_file(robot: RobotDescription) -> Path:
     root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench"
-    key = hashlib.sha256(robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}:{robot.torso_axes}".encode()).hexdigest()[:16]
+    key = hashlib.sha256(
+        robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}:{robot.torso_axes}".encode()
+    ).hexdigest()[:16]
     return root / f"reach-{robot.name}-{key}.npz"
 
 

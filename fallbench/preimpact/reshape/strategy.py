@@ -8,9 +8,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from fallbench.preimpact.reshape.controller import PIVOTS, RESHAPE_PARAMS, ReshapeController
 from fallbench.dynamics.dense_qp import QP_SOLVERS
 from fallbench.preimpact.base import Strategy
+from fallbench.preimpact.reshape.controller import PIVOTS, RESHAPE_PARAMS, ReshapeController
 from fallbench.scenario import Scenario
 from fallbench.sim.servo import ServoCommand
 from fallbench.sim.world import World
@@ -27,7 +27,9 @@ class ReshapeStrategy(Strategy):
         self.controller = ReshapeController(world, scenario, scenario.policy_params.get(self.name))
 
     def start(self, t: float, data: mujoco.MjData) -> None:
-        self.controller.start(data.qpos, data.qvel, data.qpos[self.world.qpos_adr], data.qvel[self.world.qvel_adr])
+        self.controller.start(
+            data.qpos, data.qvel, data.qpos[self.world.qpos_adr], data.qvel[self.world.qvel_adr]
+        )
 
     def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None:
         return self.controller.step(t, data, data.qpos, data.qvel)
