@@ -91,8 +91,8 @@ def _strategies(text: str) -> list[str]:
 PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape, direction, or a plugin's); a scenario's own `pre_impact` list wins."
 
 
-def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> ScenarioPoint:
-    """One point of a file's sweep: `--point 3` (index) or `--point key=value` (repeatable)."""
+def _matching(points: list[ScenarioPoint], selectors: list[str], file: Path) -> list[ScenarioPoint]:
+    """The points of a file's sweep that `--point 3` (index) or `--point key=value` (repeatable) select."""
     chosen = points
     for selector in selectors:
         if selector.isdigit():
@@ -113,6 +113,12 @@ def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> Sc
                 else key == "robot" and _same(p.scenario.robot, value)
             )
         ]
+    return chosen
+
+
+def _select(points: list[ScenarioPoint], selectors: list[str], file: Path) -> ScenarioPoint:
+    """Exactly one point of a file's sweep (see `_matching`)."""
+    chosen = _matching(points, selectors, file)
     if len(chosen) != 1:
         labels = "\n  ".join(f"{i}: {p.label}" for i, p in enumerate(points))
         fail(f"{file}: --point selects {len(chosen)} points, need exactly 1; the points are:\n  {labels}")
@@ -218,6 +224,55 @@ def run_one_command(
         typer.echo(f"{key:<{width}}  {value:.4g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
     if row["status"] != "ok":
         raise typer.Exit(1)
+
+
+@app.command("converge")
+def converge_command(
+    file: Path = typer.Argument(..., help="Scenario YAML file."),
+    point: list[str] = typer.Option(
+        [], help="Sweep points: an index, or key=value (repeatable); default all."
+    ),
+    levels: int = typer.Option(3, min=2, max=6, help="Steps: physics_dt, /2, /4, ... (this many)."),
+    policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
+    pre_impact: str = typer.Option("none", help=PRE_IMPACT_HELP),
+    results: Path = typer.Option(Path("results"), help="Results store (the runs are ordinary runs)."),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes."),
+) -> None:
+    """Run the points at physics_dt, /2, /4, ... and print, per headline metric and policy, the value
+    at each step and the relative change of the last halving.
+
+    Exit 0 when every change is within 5 %; exit 1 otherwise (the table says which).
+    """
+    import pandas as pd
+
+    from fallbench.results.converge import TOLERANCE, convergence_table, ladder
+    from fallbench.results.runner import expand, run_sweep
+
+    chosen = _matching(_load([file]), point, file)
+    if not chosen:
+        fail(f"{file}: --point selects no point")
+    try:
+        ladders = [ladder(p, levels) for p in chosen]
+    except ScenarioError as exc:
+        fail(str(exc))
+    specs = expand(
+        [rung for item in ladders for rung in item.levels], _policies(policies), _strategies(pre_impact)
+    )
+    table = convergence_table(ladders, run_sweep(specs, results, jobs=jobs, progress=False))
+    if table.empty:
+        fail(f"{file}: no run finished with status ok; see `fallbench results`")
+    with pd.option_context(
+        "display.width", 200, "display.max_rows", None, "display.float_format", "{:.4g}".format
+    ):
+        typer.echo(table.to_string(index=False))
+    off = table[~table["converged"]]
+    if len(off):
+        typer.echo(
+            f"{len(off)} of {len(table)} (metric, case) pairs moved more than {TOLERANCE:.0%} with the last halving",
+            err=True,
+        )
+        raise typer.Exit(1)
+    typer.echo(f"converged: {len(table)} (metric, case) pairs within {TOLERANCE:.0%} of the previous step")
 
 
 @scenarios_app.command("validate")
@@ -460,6 +515,7 @@ def check_command(
     from fallbench.results.regress import (
         BaselineError,
         baseline_frame,
+        changed_versions,
         compare,
         load_tolerances,
         read_baseline,
@@ -484,18 +540,24 @@ def check_command(
     now = baseline_frame(table, limits)
     if update:
         write_baseline(now, baseline)
-        typer.echo(f"baseline updated: {baseline} ({len(now)} cases, {len(limits)} metrics)")
+        typer.echo(f"baseline updated: {baseline} ({len(now)} cases, {len(limits.metrics)} metrics)")
         return
+    changed = changed_versions(expected, now)
+    if changed:  # said first: a change here moves numbers without any change of ours
+        typer.echo(f"software changed since {baseline} was recorded: {'; '.join(changed)}", err=True)
     regressions = compare(expected, now, limits)
     if regressions:
-        typer.echo(f"{'case':<40} {'metric':<24} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
+        typer.echo(f"{'case':<48} {'metric':<32} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
         for r in regressions:
             typer.echo(
-                f"{r.case:<40} {r.metric:<24} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}"
+                f"{r.case:<48} {r.metric:<32} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}"
             )
         typer.echo(f"{len(regressions)} regression(s) against {baseline}", err=True)
         raise typer.Exit(1)
-    typer.echo(f"check ok: {len(now)} cases x {len(limits)} metrics within tolerance of {baseline}")
+    typer.echo(
+        f"check ok: {len(now)} cases x {len(limits.per_run)} per-run metrics, "
+        f"{len(limits.distribution)} metrics over seeds, within tolerance of {baseline}"
+    )
 
 
 def main() -> None:

@@ -229,15 +229,27 @@ class ScenarioPoint:
     scenario: Scenario
     swept: dict[str, Any]  # dotted key -> value, sweep and randomised keys
     source: str  # file the point came from
+    randomized: frozenset[str] = frozenset()  # keys of `swept` drawn from the seed
 
     @property
     def label(self) -> str:
+        """The run's point name: scenario, swept and drawn values, seed."""
+        return self._name(set()) + f"#s{self.scenario.seed}"
+
+    @property
+    def group(self) -> str:
+        """The point over its seeds: the label without the seed and the values drawn from it."""
+        return self._name(self.randomized)
+
+    def _name(self, leave_out: set[str] | frozenset[str]) -> str:
         parts = [
-            f"{k}={_fmt(v)}" for k, v in self.swept.items() if not k.startswith(("randomize:", SCALE_PREFIX))
+            f"{k}={_fmt(v)}"
+            for k, v in self.swept.items()
+            if not k.startswith(SCALE_PREFIX) and k not in leave_out
         ]
         if "robot" not in self.swept and self.scenario.robot != DEFAULT_ROBOT:
             parts.insert(0, f"robot={self.scenario.robot}")  # points of different robots never share a label
-        return self.scenario.name + ("[" + ",".join(parts) + "]" if parts else "") + f"#s{self.scenario.seed}"
+        return self.scenario.name + ("[" + ",".join(parts) + "]" if parts else "")
 
 
 def _fmt(value: Any) -> str:
@@ -497,7 +509,7 @@ def _points(
                 scenario = Scenario.model_validate(data)
             except ValidationError as exc:
                 raise _sweep_error(path, doc, spec, swept, exc) from None
-            points.append(ScenarioPoint(scenario, swept, str(path)))
+            points.append(ScenarioPoint(scenario, swept, str(path), frozenset(spec.randomize)))
     return points
 
 

@@ -4,12 +4,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
-from fallbench.results.regress import read_baseline, write_baseline
+from fallbench.results.regress import (
+    Tolerance,
+    Tolerances,
+    changed_versions,
+    compare,
+    load_tolerances,
+    read_baseline,
+    write_baseline,
+)
 
 SUITE = """name: tiny
 duration: 0.7
@@ -142,3 +151,81 @@ def test_metric_that_did_not_apply_must_stay_absent(checked) -> None:
     write_baseline(frame, baseline)
     result = check()
     assert result.exit_code == 1 and "impact_time" in result.output and "n/a" in result.output
+
+
+def test_software_versions_that_changed_are_named_before_comparing(checked) -> None:
+    check, baseline = checked
+    frame = read_baseline(baseline)
+    frame["version:mujoco"] = "0.0.1"
+    write_baseline(frame, baseline)
+    result = check()
+    assert result.exit_code == 0, result.output
+    assert "software changed since" in result.stderr and "mujoco 0.0.1 -> " in result.stderr
+
+
+def test_tolerances_of_another_version_are_refused(tmp_path: Path) -> None:
+    old = tmp_path / "tolerances.yaml"
+    old.write_text("version: 1\nmetrics: {imu_peak_z: {abs: 1}}\n")
+    with pytest.raises(ValueError, match="expected `version: 2`"):
+        load_tolerances(old)
+
+
+def _seeded_cases(values: dict[str, np.ndarray], landing: np.ndarray) -> pd.DataFrame:
+    """One group of seeds of one policy, with a per-run and a distribution metric."""
+    return pd.DataFrame(
+        {
+            "point": [f"drop#s{seed}" for seed in range(len(landing))],
+            "group": "drop",
+            "policy": "stiff",
+            "pre_impact": "none",
+            "status": "ok",
+            "error": "",
+            "impact_speed": landing,
+            **values,
+        }
+    )
+
+
+TWO_KINDS = Tolerances(
+    per_run={"impact_speed": Tolerance(0.02, 0.0)},
+    distribution={"torque_demand_ratio_max": Tolerance(0.05, 0.05)},
+)
+
+
+def test_chaotic_whole_episode_metric_passes_when_its_spread_is_unchanged() -> None:
+    rng = np.random.default_rng(1)
+    landing = rng.uniform(3.0, 5.0, 16)
+    chaotic = rng.lognormal(2.0, 1.0, 16)  # a heavy-tailed whole-episode measure
+    baseline = _seeded_cases({"torque_demand_ratio_max": chaotic}, landing)
+    # A rounding change: every case moves a lot, the spread over seeds does not.
+    now = _seeded_cases({"torque_demand_ratio_max": rng.permutation(chaotic)}, landing)
+    assert compare(baseline, now, TWO_KINDS) == []
+    # Run by run the same change is a regression on most cases: the reason for comparing medians.
+    per_case = Tolerances(per_run={"torque_demand_ratio_max": Tolerance(0.05, 0.05)}, distribution={})
+    assert len(compare(baseline, now, per_case)) > 8
+
+
+def test_shifted_whole_episode_distribution_fails() -> None:
+    rng = np.random.default_rng(2)
+    landing = rng.uniform(3.0, 5.0, 16)
+    values = rng.normal(10.0, 1.0, 16)
+    baseline = _seeded_cases({"torque_demand_ratio_max": values}, landing)
+    found = compare(baseline, _seeded_cases({"torque_demand_ratio_max": values * 2}, landing), TWO_KINDS)
+    assert [r.metric for r in found] == ["torque_demand_ratio_max (median)"]
+    assert found[0].case == "drop / stiff / none (16 seeds)" and "noise" in found[0].tolerance
+
+
+def test_landing_metric_is_still_compared_run_by_run() -> None:
+    rng = np.random.default_rng(3)
+    landing = rng.uniform(3.0, 5.0, 16)
+    values = {"torque_demand_ratio_max": rng.normal(10.0, 1.0, 16)}
+    moved = landing.copy()
+    moved[5] += 0.1  # one case lands 0.1 m/s faster
+    found = compare(_seeded_cases(values, landing), _seeded_cases(values, moved), TWO_KINDS)
+    assert [(r.case, r.metric) for r in found] == [("drop#s5 / stiff / none", "impact_speed")]
+
+
+def test_changed_versions_names_each_package() -> None:
+    baseline = pd.DataFrame({"version:mujoco": ["3.3.0"], "version:pin": ["4.1.0"]})
+    now = pd.DataFrame({"version:mujoco": ["4.0.0"], "version:pin": ["4.1.0"]})
+    assert changed_versions(baseline, now) == ["mujoco 3.3.0 -> 4.0.0"]

@@ -31,6 +31,16 @@ SAFE_FIRST_GROUPS = {
     "feet",
 }  # first impacts that can comply (000 Sec. III): not elbows, knees, torso, head
 BODY_WEIGHT_GROUPS = ("total", "head", "torso")  # peak forces also given in body weights
+# The damage measures the report ranks on and `fallbench converge` checks against the step.
+HEADLINE_METRICS = (
+    "imu_peak_z_landing",
+    "contact_force_peak_head",
+    "contact_force_peak_torso",
+    "knee_limit_margin",
+    "joint_limit_hits",
+    "fell",
+    "takeover_delay",
+)
 REPLAY_RATE = 100.0  # Hz at which the full qpos is kept in the time series, for rendering
 
 

@@ -83,6 +83,10 @@ def _versions(robot: str) -> tuple[tuple[str, str], ...]:
         ("mujoco", mujoco.__version__),
         ("pin", version("pin")),
         ("proxsuite", version("proxsuite")),
+        ("daqp", version("daqp")),
+        ("numba", version("numba")),
+        ("numpy", version("numpy")),
+        ("scipy", version("scipy")),
         ("robot", get_robot(robot).version),
     )
 
@@ -105,6 +109,7 @@ def _identity(spec: RunSpec) -> dict[str, Any]:
         "robot": scenario.robot,
         "scenario": scenario.name,
         "point": spec.point.label,
+        "group": spec.point.group,
         "source": spec.point.source,
         "policy": spec.policy,
         "pre_impact": spec.pre_impact,

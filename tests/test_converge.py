@@ -1,0 +1,92 @@
+"""`fallbench converge`: the step ladder, the change of the last halving, the command's exit codes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from fallbench.cli import app
+from fallbench.results.converge import Ladder, convergence_table, ladder, relative_change
+from fallbench.scenario import Scenario, ScenarioError, ScenarioPoint
+
+
+def _point(**fields) -> ScenarioPoint:
+    return ScenarioPoint(Scenario(name="drop", duration=0.5, **fields), {}, "drop.yaml")
+
+
+def test_ladder_halves_the_step_and_names_it() -> None:
+    item = ladder(_point(physics_dt=0.001), 3)
+    assert item.steps == [0.001, 0.0005, 0.00025]
+    assert [p.label for p in item.levels] == [
+        "drop[physics_dt=0.001]#s0",
+        "drop[physics_dt=0.0005]#s0",
+        "drop[physics_dt=0.00025]#s0",
+    ]
+    assert all(p.scenario.control_dt == 0.005 for p in item.levels)
+
+
+def test_ladder_refuses_a_step_the_scenario_forbids() -> None:
+    with pytest.raises(ScenarioError, match="physics_dt"):
+        ladder(_point(physics_dt=0.001), 6)  # 0.001 / 32 is below the schema's 1e-4 s
+
+
+def test_relative_change_uses_the_floor_near_zero() -> None:
+    assert relative_change(100.0, 104.0, "imu_peak_z_landing") == pytest.approx(0.04)
+    assert relative_change(0.001, 0.002, "knee_limit_margin") == pytest.approx(0.05)  # 0.001 / 0.02
+    assert relative_change(float("nan"), float("nan"), "fell") == 0.0
+
+
+def _runs(item: Ladder, values: list[float]) -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "point": [p.label for p in item.levels],
+            "pre_impact": "none",
+            "policy": "stiff",
+            "status": "ok",
+            "imu_peak_z_landing": values,
+        }
+    )
+
+
+def test_first_order_error_halves_with_the_step() -> None:
+    # value = exact + c * dt: each halving halves the change, 10 -> 5 -> 2.5 % of 100.
+    item = ladder(_point(physics_dt=0.001), 3)
+    table = convergence_table(item and [item], _runs(item, [120.0, 110.0, 105.0]), ("imu_peak_z_landing",))
+    row = table.iloc[0]
+    assert (row["1 ms"], row["0.5 ms"], row["0.25 ms"]) == (120.0, 110.0, 105.0)
+    assert row["last change"] == pytest.approx(5 / 110)
+    assert bool(row["converged"])
+    table = convergence_table([item], _runs(item, [100.0, 130.0, 160.0]), ("imu_peak_z_landing",))
+    assert not bool(table.iloc[0]["converged"])
+
+
+def test_converge_command_runs_each_step_and_judges_the_freefall(tmp_path: Path) -> None:
+    # A 0.3 m drop ending just after touchdown at sqrt(2 h / g) = 0.247 s: the landing peak of a
+    # stiff robot over the first 40 ms of contact is a smooth function of the step.
+    scenario = tmp_path / "drop.yaml"
+    scenario.write_text("name: drop\nduration: 0.3\ninitial: {height: 0.3}\nphysics_dt: 0.001\n")
+    args = [
+        "converge",
+        str(scenario),
+        "--levels",
+        "2",
+        "--policies",
+        "stiff",
+        "--results",
+        str(tmp_path / "r"),
+    ]
+    result = CliRunner().invoke(app, [*args, "--jobs", "1"])
+    assert "imu_peak_z_landing" in result.output and "1 ms" in result.output and "0.5 ms" in result.output
+    stored = pd.read_parquet(tmp_path / "r" / "metrics")
+    assert sorted(stored["point"]) == ["drop[physics_dt=0.0005]#s0", "drop[physics_dt=0.001]#s0"]
+    assert result.exit_code in (0, 1) and ("converged:" in result.output) == (result.exit_code == 0)
+
+
+def test_converge_command_names_a_bad_point(tmp_path: Path) -> None:
+    scenario = tmp_path / "drop.yaml"
+    scenario.write_text("name: drop\nduration: 0.3\ninitial: {height: 0.3}\n")
+    result = CliRunner().invoke(app, ["converge", str(scenario), "--point", "initial.height=2"])
+    assert result.exit_code == 2 and "selects no point" in result.stderr
