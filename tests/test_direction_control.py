@@ -8,24 +8,21 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.model import PinocchioModel
 from fallbench.preimpact.direction.inertia import desired_inertia, inertia_about, inertia_jacobian, to_vector
 from fallbench.preimpact.direction.stepping import swing_velocity
 from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.scenario import Scenario
-from fallbench.sim.world import build_world, initial_state
+from fallbench.sim.world import World, initial_state
 
 
 @pytest.fixture(scope="module")
-def talos():
-    scenario = Scenario(name="stand", duration=1.0)
-    world = build_world(scenario)
-    data = initial_state(world, scenario)
-    P = pinocchio_for(world)
-    q, _ = P.state(data.qpos, data.qvel)
+def talos(world: World, robot: PinocchioModel) -> tuple[World, PinocchioModel, np.ndarray]:
+    data = initial_state(world, Scenario(name="stand", duration=1.0))
+    q, _ = robot.state(data.qpos, data.qvel)
     rng = np.random.default_rng(3)
-    q[7:] += rng.uniform(-0.2, 0.2, P.model.nq - 7)  # away from symmetric poses
-    return world, P, q
+    q[7:] += rng.uniform(-0.2, 0.2, robot.model.nq - 7)  # away from symmetric poses
+    return world, robot, q
 
 
 def _anchored_inertia(
