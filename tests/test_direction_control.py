@@ -9,6 +9,7 @@ import pinocchio as pin
 import pytest
 
 from fallbench.dynamics.model import PinocchioModel
+from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.direction.inertia import desired_inertia, inertia_about, inertia_jacobian, to_vector
 from fallbench.preimpact.direction.stepping import swing_velocity
 from fallbench.preimpact.direction.swing import SwingPath
@@ -37,8 +38,8 @@ def _anchored_inertia(
 
 
 def test_inertia_jacobian_matches_finite_differences(talos) -> None:
-    world, P, q = talos
-    model, data = P.model, P.data
+    world, robot, q = talos
+    model, data = robot.model, robot.data
     foot = model.getFrameId(world.robot.feet["left"])
     pin.framesForwardKinematics(model, data, q)
     placement = data.oMf[foot].copy()
@@ -69,8 +70,8 @@ def test_desired_inertia_turns_the_momentum_toward_the_direction() -> None:
 
 
 def test_eq5_brings_the_swing_foot_to_its_target(talos) -> None:
-    world, P, q = talos
-    model, data = P.model, P.data
+    world, robot, q = talos
+    model, data = robot.model, robot.data
     swing, stance = (model.getFrameId(world.robot.feet[s]) for s in ("right", "left"))
     columns = np.array([model.joints[j].idx_v for j in model.supports[model.frames[swing].parentJoint][2:]])
     q = q.copy()
@@ -79,10 +80,8 @@ def test_eq5_brings_the_swing_foot_to_its_target(talos) -> None:
     rotation = data.oMf[swing].rotation.copy()
     dt = 0.005
     for _ in range(300):
-        pin.forwardKinematics(model, data, q, np.zeros(model.nv))
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        qd = swing_velocity(model, data, swing, stance, columns, target, rotation, 20.0, 1.0, 1e-3)
+        state = RobotState.measure(robot, q, np.zeros(model.nv))
+        qd = swing_velocity(state, swing, stance, columns, target, rotation, 20.0, 1.0, 1e-3)
         velocity = np.zeros(model.nv)
         velocity[columns] = qd
         q = pin.integrate(model, q, velocity * dt)
