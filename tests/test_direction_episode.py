@@ -59,7 +59,7 @@ def test_a_planned_step_lands_without_counting_as_an_impact(stepped: Recording) 
 def test_direction_metrics(stepped: Recording) -> None:
     row = compute_metrics(stepped)
     assert row["direction_strategy"].startswith("take_step_")
-    assert row["control_trigger_reason"] in ("steady", "timeout")
+    assert row["control_trigger_reason"] == "steady"  # a straight capture-point path, before the timeout
     assert row["n_safe_regions"] == 2
     # the step keeps the robot off the ring: no obstacle sensor ever fires, some clearance is left
     assert row["obstacle_hit"] is False and row["obstacle_clearance_at_impact"] > 0
@@ -79,7 +79,8 @@ def test_direction_metrics(stepped: Recording) -> None:
 def test_none_gets_the_obstacle_metrics_too() -> None:
     row = compute_metrics(simulate_named(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
     assert "direction_strategy" not in row and row["n_safe_regions"] == 2
-    assert 0.0 <= row["actual_fall_direction_deg"] < 360.0
+    forward = row["actual_fall_direction_deg"]  # deg in [0, 360): the push's way, 0 deg
+    assert min(forward, 360.0 - forward) < 5.0
     assert (
         row["actual_fall_end"] == "run_end"
     )  # 0.5 s after the push the CoM is still high, no object touched
