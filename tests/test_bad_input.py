@@ -234,7 +234,13 @@ def _rejected(sweep, tmp_path: Path, path: Path) -> str:
     return result.stderr.strip()
 
 
-@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize(
+    "case",
+    [  # rejecting 5,000 nested brackets takes ~10 s
+        pytest.param(case, marks=pytest.mark.slow) if case == "very_deep_nesting" else case
+        for case in sorted(CASES)
+    ],
+)
 def test_bad_scenario_is_one_clear_line(case: str, tmp_path: Path, sweep) -> None:
     text, line, key, reason = CASES[case]
     path = tmp_path / "bad.yaml"

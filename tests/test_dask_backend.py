@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from fallbench.results.store import load_metrics
 
@@ -31,6 +32,7 @@ def _metrics(results: Path) -> pd.DataFrame:
     return load_metrics(results)[COLUMNS].sort_values("run_id").reset_index(drop=True)
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_matches_loky_and_resumes(tmp_path: Path, sweep) -> None:
     path = tmp_path / "drop.yaml"
     path.write_text(SUITE)

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
@@ -20,6 +21,7 @@ sweep:
 """
 
 
+@pytest.mark.slow
 def test_report_writes_figures_tables_and_html(tmp_path: Path, sweep) -> None:
     suite = tmp_path / "drop.yaml"
     suite.write_text(SUITE)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from fallbench.report.ranking import ranking_table, relative_changes, verdict
 from fallbench.report.stats import bootstrap, natural_sorted
@@ -114,6 +115,7 @@ def test_changes_against_the_unprotected_fall_are_paired_by_point() -> None:
     assert changes.loc[("reshape", "zero"), "vulnerable parts hit (difference)"] == "-1 [-1, -1]"
 
 
+@pytest.mark.slow
 def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
     """Overview answers first, per robot and family, links its figures; one page per family;
     points in natural order; no filmstrips without drop or push runs, and no error."""

@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from fallbench.results.store import load_metrics
 
@@ -44,6 +45,7 @@ def _stored_metrics(command: list[str], results: Path) -> pd.DataFrame:
     return table[[c for c in table.columns if not TIMINGS.search(c)]]
 
 
+@pytest.mark.slow
 def test_qp_runs_are_bit_identical_across_processes_and_job_counts(tmp_path: Path, sweep) -> None:
     path = tmp_path / "qp.yaml"
     path.write_text(SCENARIOS)

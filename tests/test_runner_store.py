@@ -11,6 +11,7 @@ from pathlib import Path
 import mujoco
 import pandas as pd
 import pyarrow.parquet as pq
+import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
@@ -89,6 +90,7 @@ def _killed_sweep(command: list[str], results: Path, sig: int) -> None:
     proc.wait(timeout=60)
 
 
+@pytest.mark.slow
 def test_killed_sweep_resumes_without_duplicates(tmp_path: Path, sweep) -> None:
     path = _write(tmp_path)
     policies = "stiff,oneshot,zero"
