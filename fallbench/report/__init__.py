@@ -4,6 +4,7 @@ the papers' figures and claims; index.html, one page per family, and summary.md.
 from __future__ import annotations
 
 import html
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
@@ -125,12 +126,34 @@ def _family_page(
     return pages.write(out / pages.family_file(robot, family), title, body)
 
 
-def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
-    runs = store.load_metrics(results)
-    if runs.empty:
-        raise FileNotFoundError(f"{results}: the results store has no runs")
-    runs = with_robot(runs)
-    out.mkdir(parents=True, exist_ok=True)
+@dataclass
+class _Sections:
+    """Everything the overview and summary.md show, computed once: figure paths and tables."""
+
+    figures: dict[str, list[Path]]  # scenario point -> its figures of 002
+    sweep_paths: list[Path]
+    pre_paths: list[Path]  # pre-impact strategies: reshape, then direction
+    pre_tables: dict[str, pd.DataFrame]
+    sensitivity_paths: list[Path]
+    sensitivity: pd.DataFrame
+    strips: dict[str, list[Path]]  # caption -> rendered filmstrips
+    strip_note: str
+    medians: pd.DataFrame
+    claims: pd.DataFrame
+    verdicts: pd.DataFrame
+    failed: pd.DataFrame
+
+    @property
+    def strip_paths(self) -> list[Path]:
+        return [p for paths in self.strips.values() for p in paths]
+
+    @property
+    def figure_paths(self) -> list[Path]:
+        return [p for paths in self.figures.values() for p in paths]
+
+
+def _sections(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> _Sections:
+    """Draw every figure into `out` and compute every table of the report."""
     figures = paper_figures(runs, results, out, progress)
     ok = runs[runs.status == "ok"]
     sweep_paths = distribution_figure(ok, out) + parameter_figures(ok, out)
@@ -139,14 +162,38 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     sensitivity_paths = sensitivity_figure(swept, out)
     sensitivity = sensitivity_table(swept) if len(swept) else pd.DataFrame()
     direction_paths, direction_tables = direction_report(runs, results, out)
-    pre_paths, pre_tables = pre_paths + direction_paths, pre_tables | direction_tables
     strips, strip_note = render_filmstrips(runs, results, out)
     medians = median_table(runs)
     claims = claims_table(runs)
-    verdicts = verdict_matrix(claims)
-    failed = runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]]
-    per_robot = ranking.robots(runs)
+    return _Sections(
+        figures=figures,
+        sweep_paths=sweep_paths,
+        pre_paths=pre_paths + direction_paths,
+        pre_tables=pre_tables | direction_tables,
+        sensitivity_paths=sensitivity_paths,
+        sensitivity=sensitivity,
+        strips=strips,
+        strip_note=strip_note,
+        medians=medians,
+        claims=claims,
+        verdicts=verdict_matrix(claims),
+        failed=runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]],
+    )
 
+
+def _family_pages(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Sections) -> list[Path]:
+    """One page per robot and scenario family."""
+    return [
+        _family_page(robot_runs, robot, family, out, sections.figures, sections.sweep_paths, sections.strips)
+        for robot, robot_runs in per_robot.items()
+        for family in ranking.families(robot_runs)
+    ]
+
+
+def _index_answer(
+    runs: pd.DataFrame, results: Path, per_robot: dict[str, pd.DataFrame], failed: pd.DataFrame
+) -> list[str]:
+    """The overview's opening: what was run, then per robot the ranking of every family."""
     body = [
         f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
         f"{len(failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
@@ -155,43 +202,53 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
         "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
         "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>",
     ]
-    family_pages = []
     for robot, robot_runs in per_robot.items():
         if robot:
             body.append(f"<h2>Robot {html.escape(robot)}</h2>")
         body += _answer(robot_runs, robot)
-        family_pages += [
-            _family_page(robot_runs, robot, f, out, figures, sweep_paths, strips)
-            for f in ranking.families(robot_runs)
-        ]
-    body += ["<h2>Falls, rendered</h2>"] + _strip_images(strips, out, strip_note)
-    body += ["<h2>Claims of the papers</h2>", pages.table(verdicts), pages.table(claims)]
+    return body
+
+
+def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Sections) -> list[str]:
+    """The overview after the answer: falls, claims, changes, pre-impact strategies, sensitivity."""
+    body = ["<h2>Falls, rendered</h2>"] + _strip_images(sections.strips, out, sections.strip_note)
+    body += ["<h2>Claims of the papers</h2>", pages.table(sections.verdicts), pages.table(sections.claims)]
     for robot, robot_runs in per_robot.items():
         body += [
             f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
             pages.table(ranking.relative_changes(robot_runs)),
         ]
     body.append("<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>")
-    for title, frame in pre_tables.items():
+    for title, frame in sections.pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", pages.table(frame)]
     body += [
         pages.image(p, out)
-        for p in pre_paths
+        for p in sections.pre_paths
         if p.suffix == ".png" and not p.stem.startswith("reshaped_fall_")
     ]
-    if len(sensitivity):
-        body += ["<h2>Sensitivity to the baseline stiffness</h2>", pages.table(sensitivity.round(3))]
-        body += [pages.image(p, out) for p in sensitivity_paths if p.suffix == ".png"]
-    body += ["<h2>More</h2><ul>"] + [f"<li>{pages.link(p.name, p.stem)}</li>" for p in family_pages]
+    if len(sections.sensitivity):
+        body += ["<h2>Sensitivity to the baseline stiffness</h2>", pages.table(sections.sensitivity.round(3))]
+        body += [pages.image(p, out) for p in sections.sensitivity_paths if p.suffix == ".png"]
+    return body
+
+
+def _index_links(family_pages: list[Path], sections: _Sections) -> list[str]:
+    """The overview's end: links to the family pages and figures, then the failed runs."""
+    body = ["<h2>More</h2><ul>"] + [f"<li>{pages.link(p.name, p.stem)}</li>" for p in family_pages]
     body += [
         f"<li>{pages.link(p.name, p.stem)}</li>"
-        for p in sweep_paths + pre_paths
+        for p in sections.sweep_paths + sections.pre_paths
         if p.suffix == ".png" and not p.stem.startswith("sweep_") or p.stem == "sweep_distributions"
     ] + ["</ul>"]
-    if len(failed):
-        body += ["<h2>Failed runs</h2>", pages.table(failed)]
-    index = pages.write(out / "index.html", "fallbench report", body)
+    if len(sections.failed):
+        body += ["<h2>Failed runs</h2>", pages.table(sections.failed)]
+    return body
 
+
+def _summary_answer(
+    runs: pd.DataFrame, results: Path, per_robot: dict[str, pd.DataFrame], failed: pd.DataFrame
+) -> list[str]:
+    """summary.md's opening: what was run, then the verdict and ranking of every robot and family."""
     summary = [
         "# fallbench report",
         "",
@@ -211,7 +268,13 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
                 ranking.ranking_table(group).to_markdown(index=False),
                 "",
             ]
-    summary += [
+    return summary
+
+
+def _summary_tables(sections: _Sections) -> list[str]:
+    """summary.md's tables: claims, pre-impact strategies, sensitivity, medians, failed runs."""
+    claims, verdicts = sections.claims, sections.verdicts
+    summary = [
         "## Claims",
         "",
         verdicts.to_markdown(index=False) if len(verdicts) else "",
@@ -221,29 +284,63 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
         "## Pre-impact strategies (none vs reshape, none vs direction)",
         "",
     ]
-    for title, frame in pre_tables.items():
+    for title, frame in sections.pre_tables.items():
         summary += [f"### {title}", "", frame.to_markdown(index=False) if len(frame) else "(no runs)", ""]
-    if len(sensitivity):
+    if len(sections.sensitivity):
         summary += [
             "## Sensitivity to the baseline stiffness (medians per gain scale)",
             "",
-            sensitivity.round(3).to_markdown(index=False),
+            sections.sensitivity.round(3).to_markdown(index=False),
             "",
         ]
-    summary += ["## Medians per scenario, strategy and policy", "", medians.round(3).to_markdown(), ""]
-    if len(failed):
-        summary += ["## Failed runs", "", failed.to_markdown(index=False), ""]
-    strip_paths = [p for paths in strips.values() for p in paths]
-    summary += ["## Files", ""] + [f"- `{p.name}`" for p in family_pages + strip_paths]
-    summary += [f"- `{p.name}`" for paths in figures.values() for p in paths if p.suffix == ".png"]
-    summary += [f"- `{p.name}`" for p in sweep_paths + pre_paths + sensitivity_paths if p.suffix == ".png"]
+    summary += [
+        "## Medians per scenario, strategy and policy",
+        "",
+        sections.medians.round(3).to_markdown(),
+        "",
+    ]
+    if len(sections.failed):
+        summary += ["## Failed runs", "", sections.failed.to_markdown(index=False), ""]
+    return summary
+
+
+def _summary_files(family_pages: list[Path], sections: _Sections) -> list[str]:
+    """summary.md's list of the pages and PNG figures written."""
+    files = ["## Files", ""] + [f"- `{p.name}`" for p in family_pages + sections.strip_paths]
+    files += [f"- `{p.name}`" for p in sections.figure_paths if p.suffix == ".png"]
+    files += [
+        f"- `{p.name}`"
+        for p in sections.sweep_paths + sections.pre_paths + sections.sensitivity_paths
+        if p.suffix == ".png"
+    ]
+    return files
+
+
+def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
+    """Write the report of the store `results` into `out`: figures, index.html, one page per robot
+    and scenario family, summary.md. Returns the files written, index.html and summary.md first."""
+    runs = store.load_metrics(results)
+    if runs.empty:
+        raise FileNotFoundError(f"{results}: the results store has no runs")
+    runs = with_robot(runs)
+    out.mkdir(parents=True, exist_ok=True)
+    sections = _sections(runs, results, out, progress)
+    per_robot = ranking.robots(runs)
+    family_pages = _family_pages(per_robot, out, sections)
+
+    index_body = _index_answer(runs, results, per_robot, sections.failed)
+    index_body += _index_evidence(per_robot, out, sections) + _index_links(family_pages, sections)
+    index = pages.write(out / "index.html", "fallbench report", index_body)
+
+    summary = _summary_answer(runs, results, per_robot, sections.failed)
+    summary += _summary_tables(sections) + _summary_files(family_pages, sections)
     (out / "summary.md").write_text("\n".join(summary) + "\n")
     return (
         [index, out / "summary.md"]
         + family_pages
-        + strip_paths
-        + [p for paths in figures.values() for p in paths]
-        + sweep_paths
-        + pre_paths
-        + sensitivity_paths
+        + sections.strip_paths
+        + sections.figure_paths
+        + sections.sweep_paths
+        + sections.pre_paths
+        + sections.sensitivity_paths
     )

@@ -10,6 +10,9 @@ are shown next to them. Drops with a swept baseline gain scale get one scope per
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import NamedTuple
+
 import pandas as pd
 
 from fallbench.report.grouping import with_robot
@@ -48,15 +51,25 @@ def _values(series: pd.Series, unit: str = "") -> str:
     return ", ".join(f"{p} {series[p]:.1f}" for p in ordered(series.index)) + unit
 
 
-def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
+@dataclass(frozen=True)
+class _DropStats:
+    """A scope's drops per gain policy (Series) and per drop point x policy (DataFrames)."""
+
+    imu: pd.Series  # median IMU z peak in the landing window, m/s^2
+    imu_whole: pd.Series  # median IMU z peak over the whole episode, m/s^2
+    knee: pd.Series  # min knee limit margin, rad
+    demand: pd.Series  # median max PD demand / torque limit in the landing window
+    demand_whole: pd.Series  # median max PD demand / torque limit over the episode
+    applied: pd.Series  # max applied torque / limit
+    imu_points: pd.DataFrame  # median landing IMU z peak per point, m/s^2
+    knee_points: pd.DataFrame  # median knee limit margin per point, rad
+    demand_points: pd.DataFrame  # median landing demand / limit per point
+
+
+def _drop_stats(runs: pd.DataFrame) -> _DropStats:
+    """The statistics 002's claims are judged on; a store without the landing columns gets NaN."""
     runs = runs.reindex(columns=runs.columns.union(LANDING_COLUMNS, sort=False))
     by = runs.groupby("policy")
-    imu = by.imu_peak_z_landing.median()
-    whole = by.imu_peak_z.median()
-    knee = by.knee_limit_margin.min()
-    demand = by.torque_demand_ratio_landing.median()
-    demand_whole = by.torque_demand_ratio_max.median()
-    applied = by.torque_ratio_max.max()
     point = runs.point if "point" in runs else pd.Series("all", index=runs.index)
     per_point = {
         m: runs.assign(point=point).pivot_table(
@@ -64,79 +77,116 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
         )
         for m in ("imu_peak_z_landing", "knee_limit_margin", "torque_demand_ratio_landing")
     }
-    imu_points, knee_points = per_point["imu_peak_z_landing"], per_point["knee_limit_margin"]
-    rows = []
+    return _DropStats(
+        imu=by.imu_peak_z_landing.median(),
+        imu_whole=by.imu_peak_z.median(),
+        knee=by.knee_limit_margin.min(),
+        demand=by.torque_demand_ratio_landing.median(),
+        demand_whole=by.torque_demand_ratio_max.median(),
+        applied=by.torque_ratio_max.max(),
+        imu_points=per_point["imu_peak_z_landing"],
+        knee_points=per_point["knee_limit_margin"],
+        demand_points=per_point["torque_demand_ratio_landing"],
+    )
 
-    def claim(key: str, holds: bool | None, numbers: str, points: pd.Series | None = None) -> None:
-        """`points`: per drop point, whether the claim holds there (N/M)."""
-        verdict = "n/a" if holds is None else ("holds" if holds else "does not hold")
-        rows.append(
-            {
-                "scope": scope,
-                "source": "002 Sec. VI",
-                "claim": CLAIMS[key][0],
-                "verdict": verdict,
-                "points holding": "" if points is None else _count(points),
-                "numbers": numbers,
-            }
-        )
 
-    imu_numbers = f"landing {_values(imu)}; whole episode {_values(whole)} m/s^2 (median IMU z peak)"
-    if {"stiff"} <= set(imu.index):
-        highest = imu_points.dropna(how="all")
-        claim(
-            "stiff_imu",
-            None if imu.isna().all() else bool(imu.idxmax() == "stiff"),
-            imu_numbers,
-            highest.idxmax(axis=1) == "stiff" if len(highest) else None,
+class _Check(NamedTuple):
+    key: str  # of CLAIMS
+    holds: bool | None  # None: not decidable on these runs
+    numbers: str
+    points: pd.Series | None = None  # per drop point, whether the claim holds there (N/M)
+
+
+def _imu_numbers(stats: _DropStats) -> str:
+    return f"landing {_values(stats.imu)}; whole episode {_values(stats.imu_whole)} m/s^2 (median IMU z peak)"
+
+
+def _knee_check(key: str, stats: _DropStats, policy: str, at_stop: bool) -> _Check:
+    """`policy` reaches the knee's mechanical stop (`at_stop`) or stays off it."""
+    margin = stats.knee[policy]
+    points = stats.knee_points[policy]
+    return _Check(
+        key,
+        bool(margin <= STOP) if at_stop else bool(margin > STOP),
+        f"{policy} min knee margin {margin:+.3f} rad",
+        points <= STOP if at_stop else points > STOP,
+    )
+
+
+def _stiff_imu_check(stats: _DropStats) -> _Check:
+    highest = stats.imu_points.dropna(how="all")
+    return _Check(
+        "stiff_imu",
+        None if stats.imu.isna().all() else bool(stats.imu.idxmax() == "stiff"),
+        _imu_numbers(stats),
+        highest.idxmax(axis=1) == "stiff" if len(highest) else None,
+    )
+
+
+def _adaptive_imu_check(stats: _DropStats) -> _Check:
+    """adaptive_qp's landing IMU peak below stiff's, with the paired per-point difference."""
+    adaptive, compared = stats.imu["adaptive_qp"], stats.imu.get("stiff", float("nan"))
+    lower, difference = None, ""
+    if "stiff" in stats.imu_points:
+        paired = (stats.imu_points["adaptive_qp"] - stats.imu_points["stiff"]).dropna()
+        lower = paired < 0
+        difference = (
+            f"; adaptive_qp - stiff per point, median [95 % CI]: {bootstrap(paired).format()} m/s^2"
+            if len(paired)
+            else ""
         )
-        claim(
-            "stiff_knee",
-            bool(knee["stiff"] > STOP),
-            f"stiff min knee margin {knee['stiff']:+.3f} rad",
-            knee_points["stiff"] > STOP,
-        )
+    return _Check(
+        "adaptive_imu",
+        None if pd.isna(adaptive) or pd.isna(compared) else bool(adaptive < compared),
+        _imu_numbers(stats) + difference,
+        lower,
+    )
+
+
+def _adaptive_torque_check(stats: _DropStats) -> _Check:
+    """adaptive_qp's landing PD demand within the torque limits (applied torques are clamped anyway)."""
+    demand = stats.demand["adaptive_qp"]
+    demand_points = stats.demand_points["adaptive_qp"].dropna()
+    return _Check(
+        "adaptive_torque",
+        None if pd.isna(demand) else bool(demand <= 1.0),
+        f"median max demand/limit {demand:.2f} in the landing (joints under the policy), "
+        f"{stats.demand_whole['adaptive_qp']:.2f} over the episode (all joints); "
+        f"applied torque max/limit {stats.applied['adaptive_qp']:.2f} (clamped by the motor)",
+        demand_points <= 1.0 if len(demand_points) else None,
+    )
+
+
+def _checks(stats: _DropStats) -> list[_Check]:
+    """002 Sec. VI's claims that the policies present in these drops can decide."""
+    checks = []
+    if {"stiff"} <= set(stats.imu.index):
+        checks += [_stiff_imu_check(stats), _knee_check("stiff_knee", stats, "stiff", at_stop=False)]
     for policy in ("oneshot", "zero"):
-        if policy in knee.index:
-            claim(
-                f"{policy}_knee",
-                bool(knee[policy] <= STOP),
-                f"{policy} min knee margin {knee[policy]:+.3f} rad",
-                knee_points[policy] <= STOP,
-            )
-    if "adaptive_qp" in imu.index:
-        compared = imu.get("stiff", float("nan"))
-        lower, difference = None, ""
-        if "stiff" in imu_points:
-            paired = (imu_points["adaptive_qp"] - imu_points["stiff"]).dropna()
-            lower = paired < 0
-            difference = (
-                f"; adaptive_qp - stiff per point, median [95 % CI]: {bootstrap(paired).format()} m/s^2"
-                if len(paired)
-                else ""
-            )
-        claim(
-            "adaptive_imu",
-            None if pd.isna(imu["adaptive_qp"]) or pd.isna(compared) else bool(imu["adaptive_qp"] < compared),
-            imu_numbers + difference,
-            lower,
-        )
-        claim(
-            "adaptive_knee",
-            bool(knee["adaptive_qp"] > STOP),
-            f"adaptive_qp min knee margin {knee['adaptive_qp']:+.3f} rad",
-            knee_points["adaptive_qp"] > STOP,
-        )
-        demand_points = per_point["torque_demand_ratio_landing"]["adaptive_qp"].dropna()
-        claim(
-            "adaptive_torque",
-            None if pd.isna(demand["adaptive_qp"]) else bool(demand["adaptive_qp"] <= 1.0),
-            f"median max demand/limit {demand['adaptive_qp']:.2f} in the landing (joints under the policy), "
-            f"{demand_whole['adaptive_qp']:.2f} over the episode (all joints); "
-            f"applied torque max/limit {applied['adaptive_qp']:.2f} (clamped by the motor)",
-            demand_points <= 1.0 if len(demand_points) else None,
-        )
-    return rows
+        if policy in stats.knee.index:
+            checks.append(_knee_check(f"{policy}_knee", stats, policy, at_stop=True))
+    if "adaptive_qp" in stats.imu.index:
+        checks += [
+            _adaptive_imu_check(stats),
+            _knee_check("adaptive_knee", stats, "adaptive_qp", at_stop=False),
+            _adaptive_torque_check(stats),
+        ]
+    return checks
+
+
+def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
+    """Rows of the claims table: 002 Sec. VI's claims on the drops `runs`, labelled `scope`."""
+    return [
+        {
+            "scope": scope,
+            "source": "002 Sec. VI",
+            "claim": CLAIMS[check.key][0],
+            "verdict": "n/a" if check.holds is None else ("holds" if check.holds else "does not hold"),
+            "points holding": "" if check.points is None else _count(check.points),
+            "numbers": check.numbers,
+        }
+        for check in _checks(_drop_stats(runs))
+    ]
 
 
 def _sensitivity_claims(runs: pd.DataFrame) -> list[dict[str, str]]:

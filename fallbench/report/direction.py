@@ -10,6 +10,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Wedge
 from ruamel.yaml import YAML
@@ -97,49 +98,56 @@ def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def claims(runs: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
-    """004's qualitative claims against our runs (thresholds are ours: 004 reports single cases)."""
-    rows: list[dict[str, str]] = []
+def _claim(text: str, n: int, m: int, holds: bool | None, extra: str = "") -> dict[str, str]:
+    """One row of 004's claims: `n` of `m` cases where it holds; n/a without cases."""
+    verdict = "n/a" if holds is None or m == 0 else ("holds" if holds else "does not hold")
+    return {"claim (004)": text, "verdict": verdict, "N/M": _ratio(n, m) + (f"; {extra}" if extra else "")}
 
-    def claim(text: str, n: int, m: int, holds: bool | None, extra: str = "") -> None:
-        verdict = "n/a" if holds is None or m == 0 else ("holds" if holds else "does not hold")
-        rows.append(
-            {"claim (004)": text, "verdict": verdict, "N/M": _ratio(n, m) + (f"; {extra}" if extra else "")}
-        )
 
-    if pairs.empty:
-        return pd.DataFrame(rows)
+def _avoidance_claims(pairs: pd.DataFrame) -> list[dict[str, str]]:
+    """Fig. 1: direction avoids the objects none hits, keeps none's safe falls safe, and does so by
+    steering the fall toward a safe region that the fall model (grown circles) keeps clear."""
     hits, clear = pairs[pairs.none_hit], pairs[~pairs.none_hit]
-    n = int((~hits.direction_hit).sum())
-    claim(
-        "direction avoids the objects that none hits (Fig. 1); holds at >= 50 %",
-        n,
-        len(hits),
-        n >= 0.5 * len(hits),
-    )
-    n = int((~clear.direction_hit).sum())
-    claim("direction keeps safe none falls safe; holds at >= 95 %", n, len(clear), n >= 0.95 * len(clear))
-    # the two halves of the first claim: steering the fall, and the fall model (grown circles) keeping it clear
-    n = int(hits.direction_safe.sum())
-    claim(
-        "direction turns the falls that none makes hit into falls toward a safe region (actual direction, "
-        "eqs. 2-4); holds at >= 50 %",
-        n,
-        len(hits),
-        n >= 0.5 * len(hits),
-    )
+    avoided = int((~hits.direction_hit).sum())
+    kept_clear = int((~clear.direction_hit).sum())
+    steered = int(hits.direction_safe.sum())
     toward_safe = pairs[pairs.direction_safe]
-    n = int((~toward_safe.direction_hit).sum())
-    claim(
-        "a direction fall toward a safe region touches no object (objects as circles grown by robot_radius); "
-        "holds at >= 95 %",
-        n,
-        len(toward_safe),
-        n >= 0.95 * len(toward_safe),
-    )
+    untouched = int((~toward_safe.direction_hit).sum())
+    return [
+        _claim(
+            "direction avoids the objects that none hits (Fig. 1); holds at >= 50 %",
+            avoided,
+            len(hits),
+            avoided >= 0.5 * len(hits),
+        ),
+        _claim(
+            "direction keeps safe none falls safe; holds at >= 95 %",
+            kept_clear,
+            len(clear),
+            kept_clear >= 0.95 * len(clear),
+        ),
+        # the two halves of the first claim: steering the fall, and the fall model (grown circles) keeping it clear
+        _claim(
+            "direction turns the falls that none makes hit into falls toward a safe region (actual direction, "
+            "eqs. 2-4); holds at >= 50 %",
+            steered,
+            len(hits),
+            steered >= 0.5 * len(hits),
+        ),
+        _claim(
+            "a direction fall toward a safe region touches no object (objects as circles grown by robot_radius); "
+            "holds at >= 95 %",
+            untouched,
+            len(toward_safe),
+            untouched >= 0.95 * len(toward_safe),
+        ),
+    ]
+
+
+def _strategy_claims(pairs: pd.DataFrame) -> list[dict[str, str]]:
+    """Figs. 6 and 9: the strategies chosen, each safe at least once; No Action and whole-body IS safe."""
     na = pairs[pairs.strategy == "no_action"]
-    n = int((~na.direction_hit).sum())
-    claim("when No Action is chosen (predicted safe), the fall is safe (Fig. 6)", n, len(na), n == len(na))
+    na_safe = int((~na.direction_hit).sum())
     chosen = pairs.strategy.map(_class)
     classes = {
         "no_action": chosen == "no_action",
@@ -148,37 +156,63 @@ def claims(runs: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
         "whole-body IS": chosen.str.endswith("+wbis"),
     }
     safe_counts = {k: int((m & ~pairs.direction_hit).sum()) for k, m in classes.items()}
-    n = sum(1 for k in classes if safe_counts[k] > 0)
-    claim(
-        "No Action, Lift a Leg, Take a Step and whole-body IS are each chosen and safe at least once",
-        n,
-        len(classes),
-        n == len(classes),
-        ", ".join(f"{k} chosen {int(m.sum())}, safe {safe_counts[k]}" for k, m in classes.items()),
-    )
+    chosen_and_safe = sum(1 for k in classes if safe_counts[k] > 0)
     wbis = pairs[chosen.str.endswith("+wbis")]
-    n = int((~wbis.direction_hit).sum())
-    claim("whole-body inertia shaping rescues a predicted-unsafe fall (Fig. 9)", n, len(wbis), n >= 1)
+    rescued = int((~wbis.direction_hit).sum())
+    return [
+        _claim(
+            "when No Action is chosen (predicted safe), the fall is safe (Fig. 6)",
+            na_safe,
+            len(na),
+            na_safe == len(na),
+        ),
+        _claim(
+            "No Action, Lift a Leg, Take a Step and whole-body IS are each chosen and safe at least once",
+            chosen_and_safe,
+            len(classes),
+            chosen_and_safe == len(classes),
+            ", ".join(f"{k} chosen {int(m.sum())}, safe {safe_counts[k]}" for k, m in classes.items()),
+        ),
+        _claim(
+            "whole-body inertia shaping rescues a predicted-unsafe fall (Fig. 9)",
+            rescued,
+            len(wbis),
+            rescued >= 1,
+        ),
+    ]
+
+
+def _prediction_claims(pairs: pd.DataFrame) -> list[dict[str, str]]:
+    """Sec. VI: the inverted-pendulum prediction's error, and incomplete steps against completed ones."""
     errors = pairs.error_deg.dropna()
-    claim(
-        "prediction error median <= 15 deg (inverted-pendulum prediction, Sec. VI)",
-        int((errors <= 15).sum()),
-        len(errors),
-        bool(len(errors)) and float(errors.median()) <= 15,
-        f"median {errors.median():.1f} deg" if len(errors) else "",
-    )
-    steps = pairs[chosen.str.startswith("take_step") & pairs.step_completed.notna()]
+    steps = pairs[pairs.strategy.map(_class).str.startswith("take_step") & pairs.step_completed.notna()]
     done, undone = steps[steps.step_completed.astype(bool)], steps[~steps.step_completed.astype(bool)]
-    claim(
-        "incomplete steps fail more often than completed ones (Sec. VI)",
-        int(undone.direction_hit.sum()),
-        len(undone),
-        None if not len(done) or not len(undone) else undone.direction_hit.mean() > done.direction_hit.mean(),
-        f"completed steps: {int(done.direction_hit.sum())}/{len(done)} hit",
-    )
-    rows += _ablation(runs)
-    rows += _mirrors(pairs)
-    return pd.DataFrame(rows)
+    return [
+        _claim(
+            "prediction error median <= 15 deg (inverted-pendulum prediction, Sec. VI)",
+            int((errors <= 15).sum()),
+            len(errors),
+            bool(len(errors)) and float(errors.median()) <= 15,
+            f"median {errors.median():.1f} deg" if len(errors) else "",
+        ),
+        _claim(
+            "incomplete steps fail more often than completed ones (Sec. VI)",
+            int(undone.direction_hit.sum()),
+            len(undone),
+            None
+            if not len(done) or not len(undone)
+            else undone.direction_hit.mean() > done.direction_hit.mean(),
+            f"completed steps: {int(done.direction_hit.sum())}/{len(done)} hit",
+        ),
+    ]
+
+
+def claims(runs: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
+    """004's qualitative claims against our runs (thresholds are ours: 004 reports single cases)."""
+    if pairs.empty:
+        return pd.DataFrame()
+    rows = _avoidance_claims(pairs) + _strategy_claims(pairs) + _prediction_claims(pairs)
+    return pd.DataFrame(rows + _ablation(runs) + _mirrors(pairs))
 
 
 def _ablation(runs: pd.DataFrame) -> list[dict[str, str]]:
@@ -233,22 +267,14 @@ def _scenario(results: Path, run_id: str) -> Scenario:
     return Scenario.model_validate(spec["scenario"])
 
 
-def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
-    """004's view from above: objects and grown circles, safe cones about the CoM at the control
-    trigger, CoM paths of none and direction, candidates' predicted directions, the chosen and
-    desired directions."""
-    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
-        "pre_impact"
-    )
-    if not {"none", "direction"} <= set(rows.index):
-        return []
-    chosen = rows.loc["direction"]
-    scenario = _scenario(results, chosen.run_id)
-    config = DirectionConfig(**scenario.policy_params.get("direction", {}))
-    origin = np.array([chosen.direction_origin_x, chosen.direction_origin_y])
-    if not np.isfinite(origin).all():
-        return []
-    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+def _ray(origin: np.ndarray, degrees: float, length: float) -> np.ndarray:
+    """Start and end of a ray from `origin` (m) at `degrees`, as x and y rows for `plot`."""
+    angle = math.radians(degrees)
+    return np.c_[origin, origin + length * np.array([math.cos(angle), math.sin(angle)])]
+
+
+def _draw_safe_regions(ax: Axes, scenario: Scenario, config: DirectionConfig, origin: np.ndarray) -> None:
+    """Shade the safe cones about `origin` between the grown object circles."""
     grown = grown_circles(
         scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height
     )
@@ -265,23 +291,36 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
                 lw=0,
             )
         )
+
+
+def _draw_objects(ax: Axes, scenario: Scenario, robot_radius: float) -> None:
+    """Each object's circle, and dashed, the circle grown by the robot's radius."""
     for obstacle in scenario.obstacles:
         circle = object_circle(obstacle)
         ax.add_patch(CirclePatch(circle.centre, circle.radius, color="#8c564b", alpha=0.55))
         ax.add_patch(
             CirclePatch(
                 circle.centre,
-                circle.radius + config.robot_radius,
+                circle.radius + robot_radius,
                 fill=False,
                 ls="--",
                 color="#8c564b",
                 lw=0.8,
             )
         )
+
+
+def _draw_com_paths(ax: Axes, rows: pd.DataFrame, results: Path) -> None:
+    """The CoM's path of the `none` and the `direction` run, each marked hit or clear."""
     for name, colour in (("none", "#7f7f7f"), ("direction", "#1f77b4")):
         series = store.load_timeseries(results, rows.loc[name, "run_id"])
         hit = "hit" if rows.loc[name, "obstacle_hit"] else "clear"
         ax.plot(series.com_x, series.com_y, color=colour, lw=2, label=f"CoM, {name} ({hit})")
+
+
+def _draw_candidates(ax: Axes, chosen: pd.Series, origin: np.ndarray) -> None:
+    """Each candidate strategy's predicted direction, green when its score is safe (<= 1), with its
+    name and score."""
     candidates = sorted(json.loads(chosen.direction_candidates or "[]"), key=lambda c: c["deg"])
     level, previous = 0, -math.inf
     for candidate in candidates:
@@ -292,7 +331,7 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
         )  # stagger close rays' labels
         safe = candidate["score"] is not None and candidate["score"] <= 1.0
         ax.plot(
-            *np.c_[origin, origin + 1.0 * np.array([math.cos(angle), math.sin(angle)])],
+            *_ray(origin, candidate["deg"], 1.0),
             color="#2ca02c" if safe else "#d62728",
             lw=0.8,
             alpha=0.7,
@@ -302,20 +341,44 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
             origin + (1.05 + 0.13 * level) * np.array([math.cos(angle), math.sin(angle)]),
             fontsize=6,
         )
+
+
+def _draw_chosen_directions(ax: Axes, chosen: pd.Series, origin: np.ndarray) -> None:
+    """The chosen strategy's predicted fall direction and the desired one (theta_d), where known."""
     for value, style, label in (
         (chosen.predicted_fall_direction_deg, dict(color="black", ls="--"), "predicted (chosen)"),
         (chosen.desired_fall_direction_deg, dict(color="red"), "desired theta_d"),
     ):
         if np.isfinite(value):
             ax.plot(
-                *np.c_[
-                    origin,
-                    origin + 1.6 * np.array([math.cos(math.radians(value)), math.sin(math.radians(value))]),
-                ],
+                *_ray(origin, value, 1.6),
                 lw=1.5,
                 label=label,
                 **style,
             )
+
+
+def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
+    """004's view from above: objects and grown circles, safe cones about the CoM at the control
+    trigger, CoM paths of none and direction, candidates' predicted directions, the chosen and
+    desired directions."""
+    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
+        "pre_impact"
+    )
+    if not {"none", "direction"} <= set(rows.index):
+        return []
+    chosen = rows.loc["direction"]
+    scenario = _scenario(results, chosen.run_id)
+    config = DirectionConfig(**scenario.policy_params.get("direction", {}))
+    origin = np.array([chosen.direction_origin_x, chosen.direction_origin_y])
+    if not np.isfinite(origin).all():
+        return []
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    _draw_safe_regions(ax, scenario, config, origin)
+    _draw_objects(ax, scenario, config.robot_radius)
+    _draw_com_paths(ax, rows, results)
+    _draw_candidates(ax, chosen, origin)
+    _draw_chosen_directions(ax, chosen, origin)
     ax.set(xlim=(-2.4, 2.4), ylim=(-2.4, 2.4), aspect="equal", xlabel="x (m)", ylabel="y (m)")
     ax.set_title(f"{point} ({policy})\ndirection chose {chosen.direction_strategy or 'nothing'}", fontsize=9)
     ax.grid(alpha=0.3)

@@ -293,6 +293,81 @@ def _command_s(command: list[str]) -> float:
     return time.perf_counter() - started
 
 
+def _e2e_sweep_figures(
+    cli: list[str],
+    runs: int,
+    folder: Path,
+    sweep_repeats: int,
+    progress: Callable[[str], None],
+) -> dict[str, float]:
+    """`run sweep` of `runs` shipped runs with 1 and 2 jobs in turn, `sweep_repeats` pairs: median
+    wall times (s) and the median of the pairs' speedups."""
+    path = _sweep_file(runs, folder)
+    times: dict[int, list[float]] = {1: [], 2: []}
+    for repeat in range(sweep_repeats):
+        for jobs in (1, 2):
+            progress(f"whole command: {runs}-run sweep, {jobs} job(s), pair {repeat + 1}/{sweep_repeats}")
+            results = folder / f"r{runs}-{jobs}-{repeat}"
+            times[jobs].append(
+                _command_s(
+                    cli
+                    + [
+                        "run",
+                        "sweep",
+                        str(path),
+                        "--jobs",
+                        str(jobs),
+                        "--pre-impact",
+                        "none",
+                        "--results",
+                        str(results),
+                        "--reports",
+                        str(results / "rep"),
+                        "--no-progress",
+                    ]
+                )
+            )
+    figures = {f"e2e_sweep_s_{jobs}job_{runs}": statistics.median(times[jobs]) for jobs in (1, 2)}
+    figures[f"e2e_speedup_{runs}"] = statistics.median(a / b for a, b in zip(times[1], times[2]))
+    return figures
+
+
+def _run_one_s(cli: list[str], point: ScenarioPoint, index: int, folder: Path, repeats: int) -> float:
+    """Median wall time (s) of `run one` on the point (`index` in its file) with `stiff`, each into
+    a fresh store."""
+    return statistics.median(
+        _command_s(
+            cli
+            + [
+                "run",
+                "one",
+                point.source,
+                "--point",
+                str(index),
+                "--policy",
+                "stiff",
+                "--results",
+                str(folder / f"one{i}"),
+            ]
+        )
+        for i in range(repeats)
+    )
+
+
+def _import_s(repeats: int) -> float:
+    """Median time (s) a fresh interpreter takes to import the modules `run one` loads."""
+    probe = (
+        "import time; t = time.perf_counter(); import fallbench.cli, fallbench.results.runner, fallbench.sim.episode, "
+        "fallbench.analysis.metrics; print(time.perf_counter() - t)"
+    )
+    return statistics.median(
+        float(
+            subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True).stdout
+        )
+        for _ in range(repeats)
+    )
+
+
 def command_figures(
     point: ScenarioPoint,
     runs_list: list[int],
@@ -302,70 +377,15 @@ def command_figures(
 ) -> dict[str, float]:
     """Whole commands in fresh interpreters: sweeps with 1 and 2 jobs (in turn, `sweep_repeats`
     pairs, medians), `run one` on the point with `stiff`, and the import time of `run one`'s modules."""
-
     cli = [sys.executable, "-m", "fallbench.cli"]
     index = next(i for i, p in enumerate(load([point.source])) if p.label == point.label)
     figures: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as folder:
         for runs in runs_list:
-            path = _sweep_file(runs, Path(folder))
-            times: dict[int, list[float]] = {1: [], 2: []}
-            for repeat in range(sweep_repeats):
-                for jobs in (1, 2):
-                    progress(
-                        f"whole command: {runs}-run sweep, {jobs} job(s), pair {repeat + 1}/{sweep_repeats}"
-                    )
-                    results = Path(folder) / f"r{runs}-{jobs}-{repeat}"
-                    times[jobs].append(
-                        _command_s(
-                            cli
-                            + [
-                                "run",
-                                "sweep",
-                                str(path),
-                                "--jobs",
-                                str(jobs),
-                                "--pre-impact",
-                                "none",
-                                "--results",
-                                str(results),
-                                "--reports",
-                                str(results / "rep"),
-                                "--no-progress",
-                            ]
-                        )
-                    )
-            for jobs in (1, 2):
-                figures[f"e2e_sweep_s_{jobs}job_{runs}"] = statistics.median(times[jobs])
-            figures[f"e2e_speedup_{runs}"] = statistics.median(a / b for a, b in zip(times[1], times[2]))
+            figures.update(_e2e_sweep_figures(cli, runs, Path(folder), sweep_repeats, progress))
         progress("whole command: run one")
-        figures["run_one_s"] = statistics.median(
-            _command_s(
-                cli
-                + [
-                    "run",
-                    "one",
-                    point.source,
-                    "--point",
-                    str(index),
-                    "--policy",
-                    "stiff",
-                    "--results",
-                    str(Path(folder) / f"one{i}"),
-                ]
-            )
-            for i in range(repeats)
-        )
-    probe = (
-        "import time; t = time.perf_counter(); import fallbench.cli, fallbench.results.runner, fallbench.sim.episode, "
-        "fallbench.analysis.metrics; print(time.perf_counter() - t)"
-    )
-    figures["import_s"] = statistics.median(
-        float(
-            subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True).stdout
-        )
-        for _ in range(repeats)
-    )
+        figures["run_one_s"] = _run_one_s(cli, point, index, Path(folder), repeats)
+    figures["import_s"] = _import_s(repeats)
     return figures
 
 
@@ -484,7 +504,8 @@ def run_bench(
     return figures
 
 
-def markdown(figures: dict[str, Any]) -> str:
+def _policy_lines(figures: dict[str, Any]) -> list[str]:
+    """The heading, pure physics, and one table row per policy (adaptive_qp once per QP solver)."""
     lines = [
         "# fallbench bench",
         "",
@@ -505,6 +526,12 @@ def markdown(figures: dict[str, Any]) -> str:
             f"{figures[f'controller_ms_p99_{p}']:.3f} |"
         )
     lines.append("")
+    return lines
+
+
+def _qp_lines(figures: dict[str, Any]) -> list[str]:
+    """Per QP solver: adaptive_qp's QP step in parts, and the reshaping QP's step."""
+    lines = []
     for solver in QP_SOLVERS:
         x = _suffix(solver)
         lines += [
@@ -517,7 +544,12 @@ def markdown(figures: dict[str, Any]) -> str:
             f"p99 {figures['reshape_solve_ms_p99' + x]:.3f} ms.",
             "",
         ]
-    lines += [
+    return lines
+
+
+def _sweep_lines(figures: dict[str, Any]) -> list[str]:
+    """Sweep throughput and memory, then the whole commands measured."""
+    lines = [
         f"Sweep of {figures['sweep_runs']} runs (4 policies): 1 job {figures['sweep_runs_per_s_1job']:.2f} runs/s, "
         f"2 jobs {figures['sweep_runs_per_s_2job']:.2f} runs/s, speedup {figures['sweep_speedup']:.2f}x "
         f"(worker start and model compile {figures['worker_warmup_s']:.1f} s, not counted). Peak RSS: workers "
@@ -538,16 +570,26 @@ def markdown(figures: dict[str, Any]) -> str:
             f"{figures['import_s']:.2f} s.",
             "",
         ]
-    if "store_runs" in figures:
-        lines += [
-            f"Results store of {figures['store_runs']:,} runs ({figures['store_parts']} parts, "
-            f"{figures['store_table_mb']:.1f} MB; built in {figures['store_build_s']:.1f} s): adding one run "
-            f"median {figures['store_add_one_s_median']:.3f} s, worst {figures['store_add_one_s_max']:.3f} s; "
-            f"grouped query {figures['store_query_s_median']:.3f} s; filtered read (one scenario, one policy) "
-            f"{figures['store_filtered_read_s_median']:.3f} s.",
-            "",
-        ]
-    lines += ["| target | measured | of which the QP solver alone | limit | met |", "|---|---|---|---|---|"]
+    return lines
+
+
+def _store_lines(figures: dict[str, Any]) -> list[str]:
+    """The results store's timings at N runs, when measured."""
+    if "store_runs" not in figures:
+        return []
+    return [
+        f"Results store of {figures['store_runs']:,} runs ({figures['store_parts']} parts, "
+        f"{figures['store_table_mb']:.1f} MB; built in {figures['store_build_s']:.1f} s): adding one run "
+        f"median {figures['store_add_one_s_median']:.3f} s, worst {figures['store_add_one_s_max']:.3f} s; "
+        f"grouped query {figures['store_query_s_median']:.3f} s; filtered read (one scenario, one policy) "
+        f"{figures['store_filtered_read_s_median']:.3f} s.",
+        "",
+    ]
+
+
+def _target_lines(figures: dict[str, Any]) -> list[str]:
+    """The targets table: each measured figure against its limit."""
+    lines = ["| target | measured | of which the QP solver alone | limit | met |", "|---|---|---|---|---|"]
     for name, (key, comparison, limit) in TARGETS.items():
         share = f"{figures[SOLVER_SHARE[key]]:.3g}" if SOLVER_SHARE.get(key) in figures else ""
         if key in figures:
@@ -556,4 +598,10 @@ def markdown(figures: dict[str, Any]) -> str:
             )
         else:
             lines.append(f"| {name} | not measured | | {comparison} {limit:g} | - |")
-    return "\n".join(lines) + "\n"
+    return lines
+
+
+def markdown(figures: dict[str, Any]) -> str:
+    """The figures of `run_bench` as the Markdown of reports/bench.md."""
+    lines = _policy_lines(figures) + _qp_lines(figures) + _sweep_lines(figures) + _store_lines(figures)
+    return "\n".join(lines + _target_lines(figures)) + "\n"

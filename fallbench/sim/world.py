@@ -125,27 +125,31 @@ def _add_contact_sensor(
     sensor.intprm = [1 | 2, 3, 1] + [0] * (len(sensor.intprm) - 3)
 
 
-def build_spec(scenario: Scenario) -> mujoco.MjSpec:
-    robot = get_robot(scenario.robot)
-    spec = _robot_spec(robot)
+def _set_options(spec: mujoco.MjSpec, scenario: Scenario) -> None:
+    """Name, step and solver options; no automatic reset, so that a diverged run is seen and stored."""
     spec.modelname = f"fallbench_{scenario.name}"
     spec.option.timestep = scenario.physics_dt
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
 
-    root = spec.body(robot.root_body)
-    root.add_freejoint().name = "root"
+
+def _set_robot_contacts(spec: mujoco.MjSpec, robot: RobotDescription, friction: float) -> None:
+    """Every robot geom collides with the scene and the robot, with the fixed contact softness,
+    except the body pairs the robot's SRDF disables."""
     for geom in spec.geoms:
         geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
         geom.condim = 3
-        geom.friction = [scenario.friction, 0.005, 0.0001]
+        geom.friction = [friction, 0.005, 0.0001]
         geom.solref, geom.solimp = CONTACT_SOLREF, CONTACT_SOLIMP
     for body1, body2 in robot.disabled_collisions:
         if spec.body(body1) is not None and spec.body(body2) is not None:
             exclude = spec.add_exclude()
             exclude.bodyname1, exclude.bodyname2 = body1, body2
 
+
+def _add_scene(spec: mujoco.MjSpec, scenario: Scenario) -> None:
+    """The floor, the scenario's obstacles and a light above."""
     floor = spec.worldbody.add_geom()
     floor.name = FLOOR_NAME
     floor.type = mujoco.mjtGeom.mjGEOM_PLANE
@@ -157,6 +161,10 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
     light = spec.worldbody.add_light()
     light.pos, light.dir = [0.0, 0.0, 4.0], [0.0, 0.0, -1.0]
 
+
+def _add_servos(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
+    """A position servo with the robot's default gains on each hinge, its torque clamped to the
+    joint's limit (Nm); each hinge's armature and its 5 ms limit stop (LIMIT_SOLREF)."""
     for joint in spec.joints:
         if joint.type != mujoco.mjtJoint.mjJNT_HINGE:
             continue
@@ -173,43 +181,72 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
         actuator.forcerange = [-limit, limit]
         actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
 
+
+def _add_sensors(
+    spec: mujoco.MjSpec, kinds: tuple[tuple[str, mujoco.mjtSensor], ...], objtype: mujoco.mjtObj, objname: str
+) -> None:
+    """One sensor per (name, kind) of `kinds`, all on the same object."""
+    for name, kind in kinds:
+        sensor = spec.add_sensor()
+        sensor.name, sensor.type = name, kind
+        sensor.objtype, sensor.objname = objtype, objname
+
+
+def _add_state_sensors(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
+    """IMU (accelerometer, gyro), the root body's pose and velocity, the whole robot's CoM."""
     imu = spec.body(robot.imu_body).add_site()
     imu.name = "imu"
-    for name, kind in (
-        ("imu_acc", mujoco.mjtSensor.mjSENS_ACCELEROMETER),
-        ("imu_gyro", mujoco.mjtSensor.mjSENS_GYRO),
-    ):
-        sensor = spec.add_sensor()
-        sensor.name, sensor.type = name, kind
-        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_SITE, "imu"
-    for name, kind in (
-        ("base_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
-        ("base_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT),
-        ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL),
-    ):
-        sensor = spec.add_sensor()
-        sensor.name, sensor.type = name, kind
-        # XBODY: the body's own frame (BODY would be its inertial frame, which a URDF may rotate)
-        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_XBODY, robot.root_body
-
+    _add_sensors(
+        spec,
+        (("imu_acc", mujoco.mjtSensor.mjSENS_ACCELEROMETER), ("imu_gyro", mujoco.mjtSensor.mjSENS_GYRO)),
+        mujoco.mjtObj.mjOBJ_SITE,
+        "imu",
+    )
+    # XBODY: the body's own frame (BODY would be its inertial frame, which a URDF may rotate)
+    _add_sensors(
+        spec,
+        (
+            ("base_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
+            ("base_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT),
+            ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL),
+        ),
+        mujoco.mjtObj.mjOBJ_XBODY,
+        robot.root_body,
+    )
     # whole-robot CoM and its velocity, for the capture point (computed in C inside the step)
-    for name, kind in (
-        ("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM),
-        ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL),
-    ):
-        sensor = spec.add_sensor()
-        sensor.name, sensor.type = name, kind
-        sensor.objtype, sensor.objname = mujoco.mjtObj.mjOBJ_BODY, robot.root_body
+    _add_sensors(
+        spec,
+        (("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM), ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL)),
+        mujoco.mjtObj.mjOBJ_BODY,
+        robot.root_body,
+    )
 
+
+def _add_contact_sensors(spec: mujoco.MjSpec, robot: RobotDescription, obstacles: int) -> None:
+    """The whole robot against the world, each body of the robot's body groups that has geoms,
+    and the whole robot against each of the `obstacles` obstacles."""
     _add_contact_sensor(spec, "contact:total", robot.root_body, subtree=True)
     for group, bodies in robot.body_groups.items():
         for body in bodies:
             if spec.body(body) is not None and spec.body(body).geoms:
                 _add_contact_sensor(spec, f"contact:{group}:{body}", body)
-    for index in range(len(scenario.obstacles)):
+    for index in range(obstacles):
         _add_contact_sensor(
             spec, f"obstacle:{index}", robot.root_body, subtree=True, geom2=f"obstacle_{index}"
         )
+
+
+def build_spec(scenario: Scenario) -> mujoco.MjSpec:
+    """The scenario's scene, uncompiled: robot on a free joint, floor and obstacles, servos, sensors."""
+    robot = get_robot(scenario.robot)
+    spec = _robot_spec(robot)
+    _set_options(spec, scenario)
+    spec.body(robot.root_body).add_freejoint().name = "root"
+    _set_robot_contacts(spec, robot, scenario.friction)
+    _add_scene(spec, scenario)
+    _add_servos(spec, robot)
+    _add_state_sensors(spec, robot)
+    _add_contact_sensors(spec, robot, len(scenario.obstacles))
     return spec
 
 
