@@ -266,7 +266,7 @@ def _sweep_file(runs: int, folder: Path) -> Path:
 
     from fallbench.scenario import Scenario
 
-    shipped = Path(__file__).resolve().parents[1] / "scenarios"
+    shipped = Path(__file__).resolve().parents[2] / "scenarios"
     default = Scenario.model_fields["robot"].default  # the sweep: one robot
     drops, pushes = (
         [p for p in load([shipped / name]) if p.scenario.robot == default]
