@@ -58,12 +58,11 @@ def post_impact():
 
 def _solve(step, config: QPConfig = QPConfig()):
     policy, q_ref, qpos, qvel, q_meas, qd_meas, points, selected, held, _ = step
-    P, world = policy.P, policy.world
-    q, v = P.state(qpos, qvel)
+    robot, world = policy.P, policy.world
+    q, v = robot.state(qpos, qvel)
     e, e_dot = q_ref - q_meas, -qd_meas
-    terms = model_terms(P, q, v, points, inertia=True)
+    terms = model_terms(robot, q, v, points, inertia=True)
     problem = build_problem(
-        P,
         terms,
         points,
         selected,
@@ -91,20 +90,21 @@ def test_solution_satisfies_dynamics_contacts_torque_limits_and_bounds(post_impa
     assert len(sample) >= 4
     for step in sample:
         policy, points, s, held = step[0], step[6], step[7], step[8]
-        P, limits = policy.P, policy.world.torque_limit
+        robot, limits = policy.P, policy.world.torque_limit
         terms, problem, qdd, lam, K, B, e, e_dot = _solve(step, QPConfig(solver=solver))
         # Dynamics (eq. 10), all rows: H qdd + C - J' G lambda = tau; tau = 0 on the base, K e + B e_dot
         # on the selected motors (eq. 15), the held PD torque on the others.
         G = scipy.linalg.block_diag(*points.generators)  # forces = G lambda, independently of force_map
-        tau = terms.H @ qdd + terms.C - terms.contacts.jacobian.T @ G @ lam
+        contacts = terms.state.contacts
+        tau = terms.H @ qdd + terms.C - contacts.jacobian.T @ G @ lam
         scale = np.abs(terms.H @ qdd).max() + np.abs(terms.C).max()
         assert np.abs(tau[:6]).max() < TOL * scale
         planned = K * e[s] + B * e_dot[s]
-        np.testing.assert_allclose(tau[P.actuated_v[s]], planned, atol=TOL * scale)
+        np.testing.assert_allclose(tau[robot.actuated_v[s]], planned, atol=TOL * scale)
         others = np.setdiff1d(np.arange(len(limits)), s)
-        np.testing.assert_allclose(tau[P.actuated_v[others]], held[others], atol=TOL * scale)
+        np.testing.assert_allclose(tau[robot.actuated_v[others]], held[others], atol=TOL * scale)
         # Contact rows: every contact point's normal acceleration n'(J qdd + J_dot qd) is zero.
-        acc = (terms.contacts.jacobian @ qdd + terms.contacts.drift).reshape(-1, 3)
+        acc = (contacts.jacobian @ qdd + contacts.drift).reshape(-1, 3)
         normal_acc = np.einsum("ij,ij->i", acc, points.normals)
         assert np.abs(normal_acc).max() < 1e-3 * max(1.0, np.abs(qdd).max()), normal_acc
         # Torque limits (eq. 12) and bounds (eq. 13) to the solver's tolerance in its scaled variables.
@@ -140,7 +140,8 @@ def test_a_resting_foot_has_zero_normal_acceleration(post_impact) -> None:
     step = flat[len(flat) // 2]
     terms, problem, qdd, *_ = _solve(step)
     assert problem.A.shape[0] == 6  # three independent rows per flat foot
-    acc = (terms.contacts.jacobian @ qdd + terms.contacts.drift).reshape(-1, 3)
+    contacts = terms.state.contacts
+    acc = (contacts.jacobian @ qdd + contacts.drift).reshape(-1, 3)
     normals = step[6].normals
     normal = np.einsum("ij,ij->i", acc, normals)
     assert np.abs(normal).max() < 1e-3 * max(1.0, np.abs(acc).max())

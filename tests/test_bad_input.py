@@ -224,24 +224,28 @@ BYTES = {  # files that are not UTF-8 text
 }
 
 
-def _rejected(tmp_path: Path, path: Path) -> str:
-    results = tmp_path / "results"
-    result = CliRunner().invoke(
-        app, ["run", "sweep", str(path), "--results", str(results), "--reports", str(tmp_path / "rep")]
-    )
+def _rejected(sweep, tmp_path: Path, path: Path) -> str:
+    results = tmp_path / "results"  # the sweep's summary would go to results/rep
+    result = sweep(path, results)
     assert result.exit_code == 2, result.output
     assert result.stdout == "" and "Traceback" not in result.output
     assert result.stderr.count("\n") == 1, result.stderr
-    assert not results.exists() and not (tmp_path / "rep").exists()
+    assert not results.exists() and result.simulated == ()
     return result.stderr.strip()
 
 
-@pytest.mark.parametrize("case", sorted(CASES))
-def test_bad_scenario_is_one_clear_line(case: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "case",
+    [  # rejecting 5,000 nested brackets takes ~10 s
+        pytest.param(case, marks=pytest.mark.slow) if case == "very_deep_nesting" else case
+        for case in sorted(CASES)
+    ],
+)
+def test_bad_scenario_is_one_clear_line(case: str, tmp_path: Path, sweep) -> None:
     text, line, key, reason = CASES[case]
     path = tmp_path / "bad.yaml"
     path.write_text(text)
-    message = _rejected(tmp_path, path)
+    message = _rejected(sweep, tmp_path, path)
     assert message.startswith(f"error: {path}{f':{line}' if line else ''}: {key + ': ' if key else ''}"), (
         message
     )
@@ -249,34 +253,32 @@ def test_bad_scenario_is_one_clear_line(case: str, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("case", sorted(BYTES))
-def test_file_that_is_not_text_is_one_clear_line(case: str, tmp_path: Path) -> None:
+def test_file_that_is_not_text_is_one_clear_line(case: str, tmp_path: Path, sweep) -> None:
     data, line, reason = BYTES[case]
     path = tmp_path / "bad.yaml"
     path.write_bytes(data)
-    message = _rejected(tmp_path, path)
+    message = _rejected(sweep, tmp_path, path)
     assert message.startswith(f"error: {path}:{line}: " if line else f"error: {path}: "), message
     assert reason in message, message
 
 
 @pytest.mark.parametrize(
-    ("option", "value", "message"),
+    ("choice", "value", "message"),
     [
         (
-            "--policies",
+            "policies",
             "stiff,floppy",
             "--policies: unknown policy 'floppy'; known: stiff, oneshot, zero, adaptive_qp",
         ),
-        ("--pre-impact", "none,flail", "--pre-impact: unknown strategy 'flail'; known: none, reshape"),
+        ("pre_impact", "none,flail", "--pre-impact: unknown strategy 'flail'; known: none, reshape"),
     ],
 )
 def test_unknown_policy_or_strategy_is_rejected(
-    tmp_path: Path, option: str, value: str, message: str
+    tmp_path: Path, sweep, choice: str, value: str, message: str
 ) -> None:
     path = tmp_path / "ok.yaml"
     path.write_text(GOOD)
-    result = CliRunner().invoke(
-        app, ["run", "sweep", str(path), option, value, "--results", str(tmp_path / "r")]
-    )
+    result = sweep(path, tmp_path / "r", **{choice: value})
     assert result.exit_code == 2
     assert message in result.stderr
     assert not (tmp_path / "r").exists()

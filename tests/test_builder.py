@@ -10,16 +10,19 @@ from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactKinematics
 from fallbench.dynamics.kernels import independent_rows
 from fallbench.dynamics.limits.contact import tangential_motion_cost
+from fallbench.dynamics.limits.limit import LimitRows, Space
 from fallbench.dynamics.objective import AccelerationMap, SetPoint, task_metric
+from fallbench.dynamics.tasks.task import TaskTerms
 
 NV = 7
 RNG = np.random.default_rng(0)
 
 
 def _tasks() -> list[SetPoint]:
-    jacobian = SetPoint(2.0, RNG.normal(size=(3, NV)), RNG.normal(size=3), RNG.normal(size=3), 100.0, 20.0)
-    selection = SetPoint(0.5, None, RNG.normal(size=2), RNG.normal(size=2), 10.0, 3.0, rows=np.array([4, 1]))
-    return [jacobian, selection]
+    jacobian = TaskTerms(RNG.normal(size=3), RNG.normal(size=(3, NV)), RNG.normal(size=3))
+    rows = np.array([4, 1])
+    selection = TaskTerms(RNG.normal(size=2), np.eye(NV)[rows], RNG.normal(size=2), rows=rows)
+    return [SetPoint(2.0, jacobian, 100.0, 20.0), SetPoint(0.5, selection, 10.0, 3.0)]
 
 
 def _direct_cost(
@@ -29,9 +32,10 @@ def _direct_cost(
     n = acceleration.M.shape[1]
     H, g = np.zeros((n, n)), np.zeros(n)
     for task in tasks:
-        J = task.jacobian if task.rows is None else np.eye(NV)[task.rows]
+        terms = task.terms
+        J = terms.jacobian if terms.rows is None else np.eye(NV)[terms.rows]
         JM = J @ acceleration.M
-        offset = J @ acceleration.m + task.drift + task.kp * task.error + task.kv * J @ v
+        offset = J @ acceleration.m + terms.drift + task.kp * terms.error + task.kv * J @ v
         H += task.weight * JM.T @ JM
         g += task.weight * JM.T @ offset
     return H, g
@@ -54,9 +58,11 @@ def test_built_cost_and_rows_in_scaled_variables() -> None:
     qp.cost(tasks)
     qp.regularise(slice(0, 2), 0.1)
     rows = RNG.normal(size=(2, NV))
-    qp.zero_acceleration(rows, np.array([0.3, -0.2]))
+    qp.limit(LimitRows.equal(Space.ACCELERATION, rows, -np.array([0.3, -0.2])))  # rows q_ddot + r = 0
     inequality = RNG.normal(size=(1, n))
     qp.within(inequality, np.array([-1.0]), np.array([2.0]))
+    acceleration_rows = RNG.normal(size=(1, NV))
+    qp.limit(LimitRows(Space.ACCELERATION, acceleration_rows, np.array([-3.0]), np.array([4.0])))
     qp.bound(slice(0, n), -4.0, 5.0)
     problem = qp.build(ridge=1e-3, equilibrate=True)
 
@@ -71,7 +77,11 @@ def test_built_cost_and_rows_in_scaled_variables() -> None:
     np.testing.assert_allclose(problem.g, scale * g, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(problem.A, rows @ acceleration.M * scale, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(problem.b, -(np.array([0.3, -0.2]) + rows @ acceleration.m), rtol=1e-12)
-    np.testing.assert_allclose(problem.C, inequality * scale, rtol=1e-12)
+    np.testing.assert_allclose(problem.C[:1], inequality * scale, rtol=1e-12)
+    np.testing.assert_allclose(problem.C[1:], acceleration_rows @ acceleration.M * scale, rtol=1e-12)
+    offset = acceleration_rows @ acceleration.m
+    np.testing.assert_allclose(problem.l, [-1.0, -3.0 - offset[0]], rtol=1e-12)
+    np.testing.assert_allclose(problem.u, [2.0, 4.0 - offset[0]], rtol=1e-12)
     np.testing.assert_allclose(problem.l_box, -4.0 / scale, rtol=1e-12)
     np.testing.assert_allclose(problem.u_box, 5.0 / scale, rtol=1e-12)
 

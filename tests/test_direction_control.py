@@ -8,24 +8,22 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.model import PinocchioModel
+from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.direction.inertia import desired_inertia, inertia_about, inertia_jacobian, to_vector
 from fallbench.preimpact.direction.stepping import swing_velocity
 from fallbench.preimpact.direction.swing import SwingPath
 from fallbench.scenario import Scenario
-from fallbench.sim.world import build_world, initial_state
+from fallbench.sim.world import World, initial_state
 
 
 @pytest.fixture(scope="module")
-def talos():
-    scenario = Scenario(name="stand", duration=1.0)
-    world = build_world(scenario)
-    data = initial_state(world, scenario)
-    P = pinocchio_for(world)
-    q, _ = P.state(data.qpos, data.qvel)
+def talos(world: World, robot: PinocchioModel) -> tuple[World, PinocchioModel, np.ndarray]:
+    data = initial_state(world, Scenario(name="stand", duration=1.0))
+    q, _ = robot.state(data.qpos, data.qvel)
     rng = np.random.default_rng(3)
-    q[7:] += rng.uniform(-0.2, 0.2, P.model.nq - 7)  # away from symmetric poses
-    return world, P, q
+    q[7:] += rng.uniform(-0.2, 0.2, robot.model.nq - 7)  # away from symmetric poses
+    return world, robot, q
 
 
 def _anchored_inertia(
@@ -40,8 +38,8 @@ def _anchored_inertia(
 
 
 def test_inertia_jacobian_matches_finite_differences(talos) -> None:
-    world, P, q = talos
-    model, data = P.model, P.data
+    world, robot, q = talos
+    model, data = robot.model, robot.data
     foot = model.getFrameId(world.robot.feet["left"])
     pin.framesForwardKinematics(model, data, q)
     placement = data.oMf[foot].copy()
@@ -72,8 +70,8 @@ def test_desired_inertia_turns_the_momentum_toward_the_direction() -> None:
 
 
 def test_eq5_brings_the_swing_foot_to_its_target(talos) -> None:
-    world, P, q = talos
-    model, data = P.model, P.data
+    world, robot, q = talos
+    model, data = robot.model, robot.data
     swing, stance = (model.getFrameId(world.robot.feet[s]) for s in ("right", "left"))
     columns = np.array([model.joints[j].idx_v for j in model.supports[model.frames[swing].parentJoint][2:]])
     q = q.copy()
@@ -82,10 +80,8 @@ def test_eq5_brings_the_swing_foot_to_its_target(talos) -> None:
     rotation = data.oMf[swing].rotation.copy()
     dt = 0.005
     for _ in range(300):
-        pin.forwardKinematics(model, data, q, np.zeros(model.nv))
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        qd = swing_velocity(model, data, swing, stance, columns, target, rotation, 20.0, 1.0, 1e-3)
+        state = RobotState.measure(robot, q, np.zeros(model.nv))
+        qd = swing_velocity(state, swing, stance, columns, target, rotation, 20.0, 1.0, 1e-3)
         velocity = np.zeros(model.nv)
         velocity[columns] = qd
         q = pin.integrate(model, q, velocity * dt)

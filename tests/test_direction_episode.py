@@ -59,21 +59,28 @@ def test_a_planned_step_lands_without_counting_as_an_impact(stepped: Recording) 
 def test_direction_metrics(stepped: Recording) -> None:
     row = compute_metrics(stepped)
     assert row["direction_strategy"].startswith("take_step_")
-    assert row["control_trigger_reason"] in ("steady", "timeout")
-    assert row["n_safe_regions"] == 2 and isinstance(row["obstacle_hit"], bool)
+    assert row["control_trigger_reason"] == "steady"  # a straight capture-point path, before the timeout
+    assert row["n_safe_regions"] == 2
+    # the step keeps the robot off the ring: no obstacle sensor ever fires, some clearance is left
+    assert row["obstacle_hit"] is False and row["obstacle_clearance_at_impact"] > 0
+    assert not any(
+        (stepped.world.sensor(stepped.sensordata, name)[:, 0] > 0).any()
+        for name in stepped.world.obstacle_sensors
+    )
     assert row["fall_direction_error_deg"] == pytest.approx(
         min(
             abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"]),
             360 - abs(row["predicted_fall_direction_deg"] - row["actual_fall_direction_deg"]),
         )
     )
-    assert row["direction_plan_ms"] > 0 and math.isfinite(row["obstacle_clearance_at_impact"])
+    assert row["direction_plan_ms"] > 0
 
 
 def test_none_gets_the_obstacle_metrics_too() -> None:
     row = compute_metrics(simulate_named(FORWARD.model_copy(update={"duration": 0.6}), "stiff", "none"))
     assert "direction_strategy" not in row and row["n_safe_regions"] == 2
-    assert 0.0 <= row["actual_fall_direction_deg"] < 360.0
+    forward = row["actual_fall_direction_deg"]  # deg in [0, 360): the push's way, 0 deg
+    assert min(forward, 360.0 - forward) < 5.0
     assert (
         row["actual_fall_end"] == "run_end"
     )  # 0.5 s after the push the CoM is still high, no object touched
@@ -113,8 +120,9 @@ def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
     rec = simulate_named(_shipped("dir_fig7"), "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.chosen.kind == "take_step"
+    assert strategy.plan.inertia_shaping == "wbis"  # tracking did switch to whole-body shaping
     assert strategy.step_done is not None  # the foot landed
-    assert strategy.tracking_switch is None or strategy.tracking_switch >= strategy.step_done
+    assert strategy.step_done <= strategy.tracking_switch < rec.time[-1]  # ... once the foot was down
 
 
 def test_a_step_with_partial_inertia_shaping_lands() -> None:

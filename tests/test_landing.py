@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from fallbench.dynamics.fall_direction import FallDirection, fall_class
-from fallbench.dynamics.model import build_pinocchio
+from fallbench.dynamics.model import PinocchioModel
 from fallbench.preimpact.reshape.landing import Candidate, choose, circle_plane_crossings, landing_candidates
 from fallbench.preimpact.reshape.reach import ReachPolyhedron, compute_polyhedra
 from fallbench.preimpact.reshape.surfaces import Surface, scene_surfaces
 from fallbench.scenario import Box, Scenario
-from fallbench.sim.world import build_world
+from fallbench.sim.world import World
 
 X, Y, Z = np.eye(3)
 
@@ -108,10 +108,8 @@ def test_box_faces_and_closest_point() -> None:
     np.testing.assert_allclose(front.closest_point(np.array([0.0, 0.0, 2.0])), [0.8, 0.0, 1.0])
 
 
-def test_reach_polyhedra_split_by_the_coronal_plane() -> None:
-    world = build_world(Scenario(name="t", duration=1.0))
-    P = build_pinocchio(world)
-    polyhedra = compute_polyhedra(P.model, world.robot)
+def test_reach_polyhedra_split_by_the_coronal_plane(world: World, robot: PinocchioModel) -> None:
+    polyhedra = compute_polyhedra(robot.model, world.robot)
     assert set(polyhedra) == {"left:front", "left:back", "right:front", "right:back"}
     front = ReachPolyhedron(polyhedra["left:front"])
     assert front.contains(np.zeros(3))  # the centroid

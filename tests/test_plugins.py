@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 EXAMPLE = ROOT / "examples" / "fallbench-plugin-example"
@@ -39,6 +41,7 @@ def test_entry_points_match_the_example_pyproject() -> None:
     )
 
 
+@pytest.mark.slow
 def test_plugin_strategy_and_policy_run_through_the_cli(tmp_path: Path) -> None:
     env = _installed(tmp_path / "site")
     scenario = tmp_path / "push.yaml"

@@ -42,6 +42,7 @@ def test_time_series_keeps_the_full_qpos_at_the_replay_rate(stored: tuple[Path, 
     assert np.allclose(replay["qpos:2"], series.loc[replay.index, "base_z"])  # the base height column agrees
 
 
+@pytest.mark.slow
 def test_render_without_gl_is_one_line_and_exit_2(stored: tuple[Path, str], tmp_path: Path) -> None:
     results, run_id = stored
     out = tmp_path / "fall.mp4"
@@ -83,6 +84,7 @@ def test_render_rejects_unknown_runs_and_formats(stored: tuple[Path, str], tmp_p
     assert bad.exit_code == 2 and "expected a .mp4 or .gif" in bad.stderr
 
 
+@pytest.mark.slow
 def test_filmstrip_and_video_where_gl_works(stored: tuple[Path, str], tmp_path: Path) -> None:
     from fallbench.report.render import RenderUnavailable, filmstrip, key_moments
 

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
@@ -20,28 +21,12 @@ sweep:
 """
 
 
-def test_report_writes_figures_tables_and_html(tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_report_writes_figures_tables_and_html(tmp_path: Path, sweep) -> None:
     suite = tmp_path / "drop.yaml"
     suite.write_text(SUITE)
     results, out = tmp_path / "results", tmp_path / "reports"
-    run = CliRunner().invoke(
-        app,
-        [
-            "run",
-            "sweep",
-            str(suite),
-            "--policies",
-            "stiff,zero",
-            "--results",
-            str(results),
-            "--reports",
-            str(out),
-            "--jobs",
-            "1",
-            "--pre-impact",
-            "none",
-        ],
-    )
+    run = sweep(suite, results)
     assert run.exit_code == 0, run.output
     result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out)])
     assert result.exit_code == 0, result.output

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from fallbench.results.store import load_metrics
 
@@ -36,26 +36,8 @@ policy_params: {adaptive_qp: {solver: daqp}, reshape: {solver: daqp}}
 TIMINGS = re.compile(r"_ms(_|$)|^wall_time_s$")  # wall-clock figures differ from run to run by nature
 
 
-def _sweep(path: Path, results: Path, jobs: int) -> pd.DataFrame:
-    command = [
-        sys.executable,
-        "-m",
-        "fallbench.cli",
-        "run",
-        "sweep",
-        str(path),
-        "--results",
-        str(results),
-        "--jobs",
-        str(jobs),
-        "--policies",
-        "adaptive_qp",
-        "--pre-impact",
-        "none",
-        "--reports",
-        str(results / "rep"),
-        "--no-progress",
-    ]
+def _stored_metrics(command: list[str], results: Path) -> pd.DataFrame:
+    """The metrics a sweep in a fresh process stored, without its wall-clock figures."""
     done = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     table = load_metrics(results).set_index("run_id").sort_index()
@@ -63,10 +45,16 @@ def _sweep(path: Path, results: Path, jobs: int) -> pd.DataFrame:
     return table[[c for c in table.columns if not TIMINGS.search(c)]]
 
 
-def test_qp_runs_are_bit_identical_across_processes_and_job_counts(tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_qp_runs_are_bit_identical_across_processes_and_job_counts(tmp_path: Path, sweep) -> None:
     path = tmp_path / "qp.yaml"
     path.write_text(SCENARIOS)
-    first = _sweep(path, tmp_path / "first", 1)
+
+    def swept(folder: str, jobs: int) -> pd.DataFrame:
+        results = tmp_path / folder
+        return _stored_metrics(sweep.command(path, results, policies="adaptive_qp", jobs=jobs), results)
+
+    first = swept("first", 1)
     for suffix in ("", "_daqp"):
         assert (
             first.loc[first.scenario == "qp_push" + suffix, "preimpact_qp_steps"].iloc[0] > 10
@@ -74,5 +62,5 @@ def test_qp_runs_are_bit_identical_across_processes_and_job_counts(tmp_path: Pat
         assert (
             first.loc[first.scenario == "qp_drop" + suffix, "qp_steps"].iloc[0] > 10
         )  # the adaptive-gain QP ran
-    pd.testing.assert_frame_equal(first, _sweep(path, tmp_path / "second", 1))
-    pd.testing.assert_frame_equal(first, _sweep(path, tmp_path / "two_jobs", 2))
+    pd.testing.assert_frame_equal(first, swept("second", 1))
+    pd.testing.assert_frame_equal(first, swept("two_jobs", 2))

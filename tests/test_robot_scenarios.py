@@ -83,8 +83,8 @@ def test_bad_robot_keys_are_one_clear_line(tmp_path: Path, text: str, key: str, 
     assert result.exit_code == 2 and key in result.output and reason in result.output
 
 
-def test_unknown_robot_option_exits_2(tmp_path: Path) -> None:
-    result = CliRunner().invoke(app, ["run", "sweep", "--robot", "atlas", "--results", str(tmp_path / "r")])
+def test_unknown_robot_option_exits_2(tmp_path: Path, sweep) -> None:
+    result = sweep(None, tmp_path / "r", "--robot", "atlas")  # the shipped files
     assert result.exit_code == 2 and "--robot: unknown robot 'atlas'" in result.output
     assert not (tmp_path / "r").exists()
 

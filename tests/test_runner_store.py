@@ -5,17 +5,18 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import mujoco
 import pandas as pd
 import pyarrow.parquet as pq
+import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.results.store import load_metrics
+from fallbench.robots import get_robot
 
 SMALL = """name: tiny
 duration: 0.6
@@ -45,45 +46,23 @@ def _write(tmp_path: Path) -> Path:
     return path
 
 
-def _sweep(path: Path, results: Path, jobs: int, *extra: str):
-    return CliRunner().invoke(
-        app,
-        [
-            "run",
-            "sweep",
-            str(path),
-            "--results",
-            str(results),
-            "--jobs",
-            str(jobs),
-            "--policies",
-            "stiff,zero",
-            "--pre-impact",
-            "none",
-            "--reports",
-            str(results / "rep"),
-            *extra,
-        ],
-    )
-
-
-def test_failures_are_stored_and_strict_exits_nonzero(tmp_path: Path) -> None:
+def test_failures_are_stored_and_strict_exits_nonzero(tmp_path: Path, sweep) -> None:
     path = _write(tmp_path)
-    result = _sweep(path, tmp_path / "r", 1)
+    result = sweep(path, tmp_path / "r")
     assert result.exit_code == 0, result.output
     table = load_metrics(tmp_path / "r")
     assert len(table) == 8 and table.run_id.is_unique
     assert set(table[table.scenario == "boom"].status) == {"diverged"}
     assert set(table[table.scenario == "tiny"].status) == {"ok"}
-    strict = _sweep(path, tmp_path / "r", 1, "--strict")
-    assert strict.exit_code == 1
+    strict = sweep(path, tmp_path / "r", "--strict")
+    assert strict.exit_code == 1 and strict.simulated == ()  # stored failures are reported, not run again
     assert "0 failed" not in strict.output and "2 failed or diverged" in strict.output
 
 
-def test_same_metrics_with_one_or_two_jobs(tmp_path: Path) -> None:
+def test_same_metrics_with_one_or_two_jobs(tmp_path: Path, sweep) -> None:
     path = _write(tmp_path)
-    assert _sweep(path, tmp_path / "one", 1).exit_code == 0
-    assert _sweep(path, tmp_path / "two", 2).exit_code == 0
+    assert sweep(path, tmp_path / "one", jobs=1).exit_code == 0
+    assert sweep(path, tmp_path / "two", jobs=2).exit_code == 0
     one = load_metrics(tmp_path / "one").set_index("run_id").sort_index()
     two = load_metrics(tmp_path / "two").set_index("run_id").sort_index()
     ok = one.status == "ok"
@@ -95,30 +74,11 @@ def _finished(results: Path) -> int:
     return len(list(runs.glob("[!.]*"))) if runs.exists() else 0
 
 
-def _killed_sweep(path: Path, results: Path, sig: int) -> None:
-    cmd = [
-        sys.executable,
-        "-m",
-        "fallbench.cli",
-        "run",
-        "sweep",
-        str(path),
-        "--results",
-        str(results),
-        "--jobs",
-        "1",
-        "--policies",
-        "stiff,oneshot,zero",
-        "--pre-impact",
-        "none",
-        "--reports",
-        str(results / "rep"),
-        "--no-progress",
-    ]
+def _killed_sweep(command: list[str], results: Path, sig: int) -> None:
     # SIGINT back to its default in the child: a shell's background job inherits it ignored, and
     # the sweep would then run to the end whatever the test sends
     proc = subprocess.Popen(
-        cmd,
+        command,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
@@ -130,38 +90,25 @@ def _killed_sweep(path: Path, results: Path, sig: int) -> None:
     proc.wait(timeout=60)
 
 
-def test_killed_sweep_resumes_without_duplicates(tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_killed_sweep_resumes_without_duplicates(tmp_path: Path, sweep) -> None:
     path = _write(tmp_path)
+    policies = "stiff,oneshot,zero"
     for sig in (signal.SIGKILL, signal.SIGINT):
         results = tmp_path / f"r{int(sig)}"
-        _killed_sweep(path, results, sig)
+        _killed_sweep(sweep.command(path, results, policies=policies), results, sig)
         done_before = {p.name for p in (results / "runs").iterdir() if not p.name.startswith(".")}
         assert 0 < len(done_before) < 12
         for folder in (results / "runs").iterdir():  # every complete folder is readable
             if not folder.name.startswith("."):
                 pq.read_table(folder / "metrics.parquet")
-        result = CliRunner().invoke(
-            app,
-            [
-                "run",
-                "sweep",
-                str(path),
-                "--results",
-                str(results),
-                "--jobs",
-                "1",
-                "--policies",
-                "stiff,oneshot,zero",
-                "--pre-impact",
-                "none",
-                "--reports",
-                str(results / "rep"),
-            ],
-        )
+        result = sweep(path, results, policies=policies)
         assert result.exit_code == 0, result.output
         table = load_metrics(results)
         assert len(table) == 12 and table.run_id.is_unique
-        assert done_before <= set(table.run_id)
+        # the resumed sweep simulates the missing runs, each once, and none of the finished ones
+        assert len(result.simulated) == len(set(result.simulated)) == 12 - len(done_before)
+        assert set(result.simulated) == set(table.run_id) - done_before
 
 
 def test_run_one_prints_metrics_and_export_loads_alone(tmp_path: Path) -> None:
@@ -188,5 +135,13 @@ def test_run_one_prints_metrics_and_export_loads_alone(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, ["scenarios", "export", str(path), "--point", "1", "--out", str(scene)])
     assert result.exit_code == 0, result.output
     model = mujoco.MjModel.from_xml_path(str(scene))
-    assert model.nu == 32 and model.nkey == 1 and model.sensor("imu_acc") is not None
+    assert model.nu == 32 and model.nkey == 1
+    accelerometer = model.sensor("imu_acc")  # a 3-axis accelerometer on the IMU site of the IMU body
+    assert (accelerometer.type[0], accelerometer.dim[0], accelerometer.objtype[0]) == (
+        mujoco.mjtSensor.mjSENS_ACCELEROMETER,
+        3,
+        mujoco.mjtObj.mjOBJ_SITE,
+    )
+    imu = model.site(int(accelerometer.objid[0]))
+    assert imu.name == "imu" and model.body(int(imu.bodyid[0])).name == get_robot("talos").imu_body
     os.remove(scene)

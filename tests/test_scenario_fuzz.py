@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import annotated_types
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydantic import BaseModel
@@ -122,6 +123,7 @@ def mutated_document(draw: st.DrawFn) -> bytes:
     return text.getvalue().encode()
 
 
+@pytest.mark.slow
 @settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated_document())
 def test_validation_only_ever_fails_with_one_line(data: bytes) -> None:

@@ -3,6 +3,7 @@ a corrupt file; runs without a QP do not load Numba."""
 
 from __future__ import annotations
 
+import hashlib
 import subprocess
 import sys
 from pathlib import Path
@@ -23,20 +24,48 @@ def _steps(model: mujoco.MjModel) -> np.ndarray:
     return np.concatenate([data.qpos, data.qvel, data.sensordata])
 
 
+def _fingerprint(data: bytes) -> tuple[int, str]:
+    """Size and SHA-256 of a model file: a readable failure message for megabytes of bytes."""
+    return len(data), hashlib.sha256(data).hexdigest()
+
+
+def _serialized(model: mujoco.MjModel) -> tuple[int, str]:
+    """The fingerprint of the model in MuJoCo's binary format: every size, option and array it holds."""
+    buffer = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return _fingerprint(buffer.tobytes())
+
+
+def _not_compiled(scenario: Scenario) -> None:
+    raise AssertionError(f"{scenario.name}: compiled again instead of read from the cache")
+
+
 def test_cached_model_simulates_bit_identically(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    cache = tmp_path / "fallbench"
     scenario = Scenario(name="cache", duration=1.0, friction=0.9)
     compiled = world.compile_model(scenario)
-    files = list((tmp_path / "fallbench").glob("world-*.mjb"))
+    files = list(cache.glob("world-*.mjb"))
     assert len(files) == 1
-    loaded = world.compile_model(scenario)
-    assert loaded.nq == compiled.nq and loaded.nsensor == compiled.nsensor
+    whole = files[0].read_bytes()
+    assert _fingerprint(whole) == _serialized(compiled)  # the file holds the compiled model, all of it
+    with monkeypatch.context() as cached:
+        cached.setattr(world, "build_spec", _not_compiled)
+        loaded = world.compile_model(scenario)
+    assert _serialized(loaded) == _fingerprint(whole)
     np.testing.assert_array_equal(_steps(loaded), _steps(compiled))
-    assert world.compile_model(scenario.model_copy(update={"friction": 0.8})) is not None
-    assert len(list((tmp_path / "fallbench").glob("world-*.mjb"))) == 2  # another world, another file
-    files[0].write_bytes(files[0].read_bytes()[:1000])  # truncated
+    other = world.compile_model(scenario.model_copy(update={"friction": 0.8}))  # another world, another file
+    np.testing.assert_array_equal(other.geom_friction[:, 0], 0.8)  # every geom: not the cached model
+    np.testing.assert_array_equal(compiled.geom_friction[:, 0], 0.9)
+    [other_file] = set(cache.glob("world-*.mjb")) - set(files)
+    assert _fingerprint(other_file.read_bytes()) == _serialized(other)
+    files[0].write_bytes(whole[:1000])  # truncated
     np.testing.assert_array_equal(_steps(world.compile_model(scenario)), _steps(compiled))
-    assert world.compile_model(scenario).nq == compiled.nq  # rewritten whole
+    assert _fingerprint(files[0].read_bytes()) == _fingerprint(whole)  # rewritten whole
+    with monkeypatch.context() as cached:
+        cached.setattr(world, "build_spec", _not_compiled)
+        assert _serialized(world.compile_model(scenario)) == _fingerprint(whole)
+    assert sorted(cache.iterdir()) == sorted([files[0], other_file])  # no temporary file left behind
 
 
 LOADS_NUMBA = """

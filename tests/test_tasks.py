@@ -1,96 +1,136 @@
-"""Contact-point Jacobians and drifts against finite differences, friction cones (Pinocchio model of TALOS);
-every task is checked in test_task_jacobians."""
+"""Every task of the whole-body layer through the one `Task` interface: at random (q, v), J v is
+the error's rate and the drift is the rate of J v (J_dot q_dot), by finite differences; then each
+task's error at a known pose (002 eqs. 3-9, 000 Sec. IV-C)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from fallbench.dynamics.contacts import ContactSet, contact_kinematics, friction_generators
-from fallbench.dynamics.model import PinocchioModel, build_pinocchio
-from fallbench.scenario import Scenario
-from fallbench.sim.world import build_world
+from fallbench.dynamics.contacts import ContactSet, friction_generators
+from fallbench.dynamics.model import PinocchioModel
+from fallbench.dynamics.state import RobotState
+from fallbench.dynamics.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.point import PointTask
+from fallbench.dynamics.tasks.posture import PostureTask
+from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
+from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
+from fallbench.dynamics.tasks.task import Task, TaskTerms
+from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 
 EPS = 1e-6
+UP, WALL = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])
+FOOT, LEFT_WRIST, RIGHT_WRIST = "leg_right_6_link", "arm_left_7_link", "arm_right_7_link"
 
 
-@pytest.fixture(scope="module")
-def P() -> PinocchioModel:
-    return build_pinocchio(build_world(Scenario(name="t", duration=1.0)))
+@dataclass
+class ContactPoint(Task):
+    """A point fixed in a body, measured as a contact point: its world position as the error, and
+    the Jacobian and drift that `RobotState.measure` gives contact points (ContactKinematics), so
+    that the generic check covers them too."""
+
+    point: BodyPoint
+
+    def compute(self, state: RobotState) -> TaskTerms:
+        position = self.point.position(state)
+        generators = friction_generators(UP, WALL, np.cross(UP, WALL), 0.7)
+        contact = ContactSet.of_points([self.point.frame], position, UP, generators)
+        contacts = RobotState.measure(state.robot, state.q, state.v, contact).contacts
+        return TaskTerms(position, contacts.jacobian, contacts.drift)
 
 
-def _state(P: PinocchioModel, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    q = pin.randomConfiguration(P.model, -np.ones(P.model.nq), np.ones(P.model.nq))
-    q[7:] = np.clip(q[7:], P.model.lowerPositionLimit[7:], P.model.upperPositionLimit[7:])
-    return q, rng.normal(size=P.model.nv)
+def _posture(robot: PinocchioModel) -> Task:
+    return PostureTask(np.zeros(len(robot.actuated_v)), robot.actuated_v, robot.model.nv)
 
 
-def _point(P: PinocchioModel, q: np.ndarray) -> ContactSet:
-    pin.framesForwardKinematics(P.model, P.data, q)
-    frame = P.model.getFrameId("leg_right_6_link")
-    position = P.data.oMf[frame].act(np.array([0.1, -0.05, -0.1]))
-    normal = np.array([0.0, 0.0, 1.0])
-    generators = friction_generators(normal, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), 0.7)
-    return ContactSet.of_points(["leg_right_6_link"], position, normal, generators)
+TASKS: dict[str, Callable[[PinocchioModel], Task]] = {
+    "posture": _posture,
+    "com": lambda robot: ComTask(np.array([0.1, 0.0, 0.8])),
+    "point": lambda robot: PointTask(BodyPoint(FOOT, np.array([0.1, -0.05, -0.1])), np.array([0.3, 0, 0])),
+    "contact_point": lambda robot: ContactPoint(BodyPoint(FOOT, np.array([0.1, -0.05, -0.1]))),
+    "vector_orientation": lambda robot: VectorOrientationTask(
+        "torso_2_link", np.array([0.0, 1.0, 0.0]), WALL
+    ),
+    "surface_position": lambda robot: SurfacePositionTask(
+        BodyPoint(RIGHT_WRIST, np.array([0.0, 0.0, -0.05])), np.array([0.5, 0.2, 0.0]), np.eye(3)[:2]
+    ),
+    "relative_distance": lambda robot: RelativeDistanceTask(
+        SurfacePair(BodyPoint(LEFT_WRIST, np.array([0.0, 0.0, -0.05])), np.array([0, 0, 0.3]), UP),
+        SurfacePair(BodyPoint(RIGHT_WRIST, np.array([0.0, 0.0, -0.05])), np.array([0.8, 0, 0]), -WALL),
+    ),
+}
 
 
-def _point_position(P: PinocchioModel, q: np.ndarray, local: np.ndarray) -> np.ndarray:
-    pin.framesForwardKinematics(P.model, P.data, q)
-    return P.data.oMf[P.model.getFrameId("leg_right_6_link")].act(local)
-
-
-def test_contact_point_jacobian_and_drift(P: PinocchioModel) -> None:
-    q, v = _state(P)
-    point = _point(P, q)
-    frame = P.model.getFrameId("leg_right_6_link")
-    local = P.data.oMf[frame].actInv(point.positions[0])
-    pin.computeJointJacobians(P.model, P.data, q)
-    pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
-    pin.updateFramePlacements(P.model, P.data)
-    kin = contact_kinematics(P, v, point)
-    # velocity = J v, and J against finite differences of the point position along v
-    fd_velocity = (
-        _point_position(P, pin.integrate(P.model, q, v * EPS), local) - _point_position(P, q, local)
-    ) / EPS
-    np.testing.assert_allclose(kin.jacobian @ v, fd_velocity, atol=1e-4)
-    np.testing.assert_allclose(kin.velocity, kin.jacobian @ v, atol=1e-9)
-    # drift = d/dt (J) v: finite difference of J(q + v dt) v
-    q_next = pin.integrate(P.model, q, v * EPS)
-    pin.computeJointJacobians(P.model, P.data, q_next)
-    pin.forwardKinematics(P.model, P.data, q_next, v, np.zeros(P.model.nv))
-    pin.updateFramePlacements(P.model, P.data)
-    moved = ContactSet.of_points(point.bodies, P.data.oMf[frame].act(local), point.normals, point.generators)
-    fd_drift = (contact_kinematics(P, v, moved).velocity - kin.velocity) / EPS
-    np.testing.assert_allclose(kin.drift, fd_drift, atol=2e-3 * max(1.0, np.abs(fd_drift).max()))
-
-
-def test_friction_generators_are_unit_and_inside_the_cone() -> None:
-    n, t1, t2 = np.eye(3)[2], np.eye(3)[0], np.eye(3)[1]
-    G = friction_generators(n, t1, t2, 0.5)
-    np.testing.assert_allclose(np.linalg.norm(G, axis=0), 1.0)
-    tangential = np.linalg.norm(G[:2], axis=0)
-    np.testing.assert_allclose(tangential / G[2], 0.5)  # on the cone's edge: |f_t| = mu f_n
-
-
-def test_points_of_one_body_match_one_at_a_time(P: PinocchioModel) -> None:
-    q, v = _state(P, 3)
-    first = _point(P, q)
-    second = ContactSet.of_points(
-        first.bodies, first.positions + np.array([0.05, 0.02, 0.0]), first.normals, first.generators
+@pytest.mark.parametrize("name", TASKS)
+@pytest.mark.parametrize("seed", [0, 1])
+def test_jacobian_and_drift_match_finite_differences(robot: PinocchioModel, name: str, seed: int) -> None:
+    task = TASKS[name](robot)
+    pin.seed(seed)
+    q = pin.randomConfiguration(robot.model, -np.ones(robot.model.nq), np.ones(robot.model.nq))
+    v = np.random.default_rng(seed).normal(size=robot.model.nv)
+    now = task.compute(RobotState.measure(robot, q, v))
+    later = task.compute(RobotState.measure(robot, pin.integrate(robot.model, q, v * EPS), v))
+    rate = now.jacobian @ v
+    np.testing.assert_allclose(
+        rate, (later.error - now.error) / EPS, atol=1e-4 * max(1.0, np.abs(rate).max())
     )
-    both_points = ContactSet.of_points(
-        first.bodies * 2,
-        np.vstack([first.positions, second.positions]),
-        np.vstack([first.normals, second.normals]),
-        np.concatenate([first.generators, second.generators]),
+    fd_drift = (later.jacobian @ v - rate) / EPS
+    np.testing.assert_allclose(now.drift, fd_drift, atol=2e-3 * max(1.0, np.abs(fd_drift).max()))
+    if now.rows is not None:  # the cost reads the rows instead of the Jacobian: the same selection
+        np.testing.assert_array_equal(now.jacobian, np.eye(robot.model.nv)[now.rows])
+
+
+def _at_neutral(robot: PinocchioModel) -> RobotState:
+    return RobotState.measure(robot, pin.neutral(robot.model), np.zeros(robot.model.nv))
+
+
+def test_vector_orientation_error(robot: PinocchioModel) -> None:
+    """The neutral torso's y axis is world y, so g = y - x."""
+    task = VectorOrientationTask("torso_2_link", np.array([0.0, 1.0, 0.0]), WALL)
+    np.testing.assert_allclose(task.compute(_at_neutral(robot)).error, [-1.0, 1.0, 0.0], atol=1e-9)
+
+
+def test_relative_distance_error_is_eq7(robot: PinocchioModel) -> None:
+    task = RelativeDistanceTask(
+        SurfacePair(BodyPoint(LEFT_WRIST, np.array([0.0, 0.0, -0.05])), np.array([0, 0, 0.3]), UP),
+        SurfacePair(BodyPoint(RIGHT_WRIST, np.zeros(3)), np.array([0.8, 0, 0]), WALL),
     )
-    pin.computeJointJacobians(P.model, P.data, q)
-    pin.forwardKinematics(P.model, P.data, q, v, np.zeros(P.model.nv))
-    pin.updateFramePlacements(P.model, P.data)
-    both = contact_kinematics(P, v, both_points)
-    alone = contact_kinematics(P, v, second)
-    np.testing.assert_allclose(both.jacobian[3:], alone.jacobian, atol=1e-12)
-    np.testing.assert_allclose(both.drift[3:], alone.drift, atol=1e-12)
-    assert not np.allclose(both.jacobian[:3], both.jacobian[3:])
+    state = _at_neutral(robot)
+    left = state.frame_placement(robot.frame_id(LEFT_WRIST)).act(np.array([0.0, 0.0, -0.05]))
+    right = state.frame_placement(robot.frame_id(RIGHT_WRIST)).translation
+    expected = (left[2] - 0.3) - (right[0] - 0.8)  # eq. 7 by hand
+    assert task.compute(state).error[0] == pytest.approx(expected, abs=1e-12)
+
+
+def test_surface_position_ignores_the_normal(robot: PinocchioModel) -> None:
+    task = SurfacePositionTask(BodyPoint(LEFT_WRIST, np.zeros(3)), np.array([0.5, 0.2, 0.0]), np.eye(3)[:2])
+    state = _at_neutral(robot)
+    wrist = state.frame_placement(robot.frame_id(LEFT_WRIST)).translation
+    np.testing.assert_allclose(task.compute(state).error, wrist[:2] - [0.5, 0.2], atol=1e-12)
+
+
+def test_point_task_on_one_axis(robot: PinocchioModel) -> None:
+    """The wrist's height above a target height (the other coordinates of the target are ignored)."""
+    task = PointTask(BodyPoint(LEFT_WRIST, np.zeros(3)), np.array([9.0, 9.0, 0.4]), slice(2, 3))
+    state = _at_neutral(robot)
+    terms = task.compute(state)
+    wrist = state.frame_placement(robot.frame_id(LEFT_WRIST)).translation
+    np.testing.assert_allclose(terms.error, [wrist[2] - 0.4], atol=1e-12)
+    assert terms.jacobian.shape == (1, robot.model.nv) and terms.drift.shape == (1,)
+
+
+def test_selected_rows_keep_their_terms(robot: PinocchioModel) -> None:
+    """A posture split into two groups of joints (the reshaping QP weights the legs apart)."""
+    target = np.linspace(-0.5, 0.5, len(robot.actuated_v))
+    terms = PostureTask(target, robot.actuated_v, robot.model.nv).compute(_at_neutral(robot))
+    legs = np.arange(len(target)) < 12
+    for group in (legs, ~legs):
+        part = terms.select(group)
+        np.testing.assert_array_equal(part.error, -target[group])
+        np.testing.assert_array_equal(part.rows, robot.actuated_v[group])
+        np.testing.assert_array_equal(part.jacobian, terms.jacobian[group])

@@ -1,6 +1,7 @@
-"""The one builder of both QPs: variables y, joint accelerations q_ddot = M y + m, set-point costs
-(summed in joint-acceleration space, then carried into y once), regularisations, equality and
-inequality rows on y, equalities on q_ddot, bounds on y; then scaled for the solver (physical y = scale * x)."""
+"""The one builder of both QPs: variables y, joint accelerations q_ddot = M y + m, motor torques
+tau = T y + t, set-point costs (summed in joint-acceleration space, then carried into y once),
+regularisations, equality and inequality rows on y, limits (`LimitRows` on q_ddot or tau, carried
+into y), bounds on y; then scaled for the solver (physical y = scale * x)."""
 
 from __future__ import annotations
 
@@ -8,13 +9,22 @@ import numpy as np
 
 from fallbench.dynamics.dense_qp import ScaledQP
 from fallbench.dynamics.kernels import scaled_problem
+from fallbench.dynamics.limits.limit import LimitRows, Space
+from fallbench.dynamics.limits.torque import TorqueMap
 from fallbench.dynamics.objective import AccelerationMap, SetPoint, task_metric
 
 
 class QPBuilder:
-    def __init__(self, acceleration: AccelerationMap, scale: np.ndarray, v: np.ndarray) -> None:
+    def __init__(
+        self,
+        acceleration: AccelerationMap,
+        scale: np.ndarray,
+        v: np.ndarray,
+        torques: TorqueMap | None = None,
+    ) -> None:
+        """`torques`: how the variables give the motor torques, for torque limits."""
         n = len(scale)
-        self.acceleration, self.scale, self.v = acceleration, scale, v
+        self.acceleration, self.scale, self.v, self.torques = acceleration, scale, v, torques
         self.tasks: list[SetPoint] = []
         self.regularisation = np.zeros(n)  # added to the Hessian's diagonal
         self.equalities: list[tuple[np.ndarray, np.ndarray]] = []
@@ -36,9 +46,33 @@ class QPBuilder:
         """lower <= C y <= upper."""
         self.inequalities.append((C, lower, upper))
 
-    def zero_acceleration(self, R: np.ndarray, r: np.ndarray) -> None:
-        """R q_ddot + r = 0."""
-        self.equal(R @ self.acceleration.M, -(r + R @ self.acceleration.m))
+    def limit(self, rows: LimitRows) -> None:
+        """A limit's rows, carried into y through the acceleration or torque map."""
+        if rows.space is Space.ACCELERATION:
+            self._acceleration_limit(rows)
+        else:
+            self._torque_limit(rows)
+
+    def _acceleration_limit(self, rows: LimitRows) -> None:
+        acceleration = self.acceleration
+        if rows.matrix is None:  # bounds on q_ddot: bounds on y only when q_ddot is y's leading part
+            if not acceleration.leading:
+                raise ValueError("bounds on q_ddot need q_ddot among the variables")
+            self.bound(slice(0, len(acceleration.m)), rows.lower, rows.upper)
+            return
+        # R q_ddot = R M y + R m
+        matrix, offset = rows.matrix @ acceleration.M, rows.matrix @ acceleration.m
+        if rows.equality:
+            self.equal(matrix, rows.lower - offset)
+        else:
+            self.within(matrix, rows.lower - offset, rows.upper - offset)
+
+    def _torque_limit(self, rows: LimitRows) -> None:
+        torques = self.torques
+        if torques is None or rows.matrix is not None or rows.equality:
+            raise ValueError("torque limits are bounds, on a QP that gives its torque map")
+        motors = torques.motors
+        self.within(torques.matrix, rows.lower[motors] - torques.bias, rows.upper[motors] - torques.bias)
 
     def bound(self, variables: slice, lower: float | np.ndarray, upper: float | np.ndarray) -> None:
         self.lower[variables], self.upper[variables] = lower, upper

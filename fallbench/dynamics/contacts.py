@@ -1,8 +1,9 @@
 """Contact points of the robot with the environment, as the adaptive-gain QP needs them.
 
 The points come from the simulator's contact list (the robot's contact candidates would do on
-hardware). For each: position, normal pointing into the robot, a 4-generator linearized friction
-cone, the point Jacobian and drift J_dot q_dot from Pinocchio, and the point's velocity.
+hardware). For each: position, normal pointing into the robot and a 4-generator linearized friction
+cone; `RobotState.measure` adds their kinematics (`ContactKinematics`: point Jacobians, drifts
+J_dot q_dot and velocities from Pinocchio).
 """
 
 from __future__ import annotations
@@ -12,10 +13,6 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-
-from fallbench.dynamics import kernels
-from fallbench.dynamics.model import PinocchioModel
-from fallbench.dynamics.tasks.body_point import bodies_points_kinematics
 
 
 @dataclass
@@ -63,6 +60,9 @@ class ContactKinematics:
     normal_drift: np.ndarray  # (n,) n' J_dot q_dot, m/s^2
     force_map: np.ndarray  # (nv, 4 n) J'G: generalized forces (N, Nm) per friction-cone coefficient (N)
 
+    def __len__(self) -> int:
+        return len(self.normals)
+
 
 _FIRST, _SECOND = np.array([1.0, -1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0, -1.0])  # edges: +-t1, then +-t2
 
@@ -93,36 +93,4 @@ def environment_contacts(model: mujoco.MjModel, data: mujoco.MjData, friction: f
     names = {body: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) for body in set(robot_bodies)}
     return ContactSet(
         [names[body] for body in robot_bodies], contacts.pos[index], normals, generators, index, signs
-    )
-
-
-def contact_kinematics(P: PinocchioModel, v: np.ndarray, contacts: ContactSet) -> ContactKinematics:
-    """Point Jacobians, drifts and velocities, one frame computation per contact body; needs
-    forwardKinematics(q, v, 0) and computeJointJacobians(q) done on P.data."""
-    model, data, n = P.model, P.data, len(contacts)
-    if not n:
-        empty = np.zeros(0)
-        return ContactKinematics(
-            np.zeros((0, model.nv)),
-            empty,
-            empty,
-            np.zeros((0, 3)),
-            np.zeros(0, dtype=int),
-            np.zeros((0, model.nv)),
-            empty,
-            np.zeros((model.nv, 0)),
-        )
-    bodies = list(dict.fromkeys(contacts.bodies))  # first-seen order
-    frames = [P.frame_id(body) for body in bodies]
-    body_of = np.array([bodies.index(body) for body in contacts.bodies])
-    origins = np.array([data.oMf[frame].translation for frame in frames])
-    jacobian, drift = bodies_points_kinematics(
-        model, data, frames, body_of, contacts.positions - origins[body_of]
-    )
-    normals = contacts.normals
-    normal_jacobian, normal_drift, velocity = kernels.normal_motion(jacobian, drift, normals, v)
-    jacobian = jacobian.reshape(3 * n, model.nv)
-    forces = kernels.force_map(jacobian, contacts.generators)
-    return ContactKinematics(
-        jacobian, drift.reshape(3 * n), velocity, normals, body_of, normal_jacobian, normal_drift, forces
     )

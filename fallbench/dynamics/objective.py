@@ -1,6 +1,6 @@
 """Set-point tasks as a quadratic cost in a QP's own variables (002 eq. 1).
 
-A task with error g, Jacobian J and drift J_dot q_dot costs
+A task with error g, Jacobian J and drift J_dot q_dot (`tasks.task.TaskTerms`) costs
 weight |J q_ddot + J_dot q_dot + kp g + kv J v|^2. The tasks are summed in joint-acceleration space
 first, as the metric W = sum w J'J and the vector r = sum w J'(J_dot q_dot + kp g + kv J v), so that
 the whole cost is q_ddot' W q_ddot + 2 r' q_ddot + const, whatever the number of tasks. Each QP says how
@@ -15,39 +15,39 @@ from dataclasses import dataclass
 import numpy as np
 
 from fallbench.dynamics import kernels
+from fallbench.dynamics.tasks.task import TaskTerms
 
 NO_JACOBIAN, NO_ROWS = np.zeros((0, 0)), np.zeros(0, dtype=np.int64)  # a task given by the other
 
 
 @dataclass
 class SetPoint:
-    """One task in the cost: weight |jacobian q_ddot + drift + kp error + kv jacobian v|^2."""
+    """One task in the cost: weight |J q_ddot + drift + kp error + kv J v|^2 with the task's terms."""
 
     weight: float
-    jacobian: np.ndarray | None  # (k, nv); None when `rows` says which velocity entries it picks
-    error: np.ndarray  # (k,)
-    drift: np.ndarray  # (k,) J_dot q_dot
+    terms: TaskTerms
     kp: float  # 1/s^2
     kv: float  # 1/s
-    rows: np.ndarray | None = (
-        None  # a selection Jacobian as the (distinct) velocity indices it picks (faster)
-    )
 
 
 def task_metric(tasks: list[SetPoint], v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(W, r) of the tasks in joint-acceleration space (see the module's docstring)."""
     W, r = np.zeros((len(v), len(v))), np.zeros(len(v))
     for task in tasks:
-        jacobian = NO_JACOBIAN if task.jacobian is None else np.ascontiguousarray(task.jacobian, dtype=float)
-        rows = NO_ROWS if task.rows is None else task.rows
+        terms = task.terms
+        # a selection Jacobian goes as the velocity indices it picks (faster)
+        jacobian = (
+            NO_JACOBIAN if terms.rows is not None else np.ascontiguousarray(terms.jacobian, dtype=float)
+        )
+        rows = NO_ROWS if terms.rows is None else terms.rows
         kernels.add_task(
             W,
             r,
             jacobian,
             rows,
             float(task.weight),
-            np.asarray(task.drift, dtype=float),
-            np.asarray(task.error, dtype=float),
+            np.asarray(terms.drift, dtype=float),
+            np.asarray(terms.error, dtype=float),
             float(task.kp),
             float(task.kv),
             v,

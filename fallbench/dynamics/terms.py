@@ -9,45 +9,32 @@ import numpy as np
 import pinocchio as pin
 
 from fallbench.dynamics import kernels
-from fallbench.dynamics.contacts import ContactKinematics, ContactSet, contact_kinematics
+from fallbench.dynamics.contacts import ContactSet
 from fallbench.dynamics.model import PinocchioModel
+from fallbench.dynamics.state import RobotState
 
 
 @dataclass
 class ModelTerms:
-    q: np.ndarray
-    v: np.ndarray
+    state: RobotState  # the kinematics: what tasks and limits take
     H: np.ndarray | None  # inertia matrix (with rotor armature), (nv, nv); None unless asked for
     H_inv: np.ndarray | None  # the inverse inertia matrix; None unless asked for
     C: np.ndarray  # gravity, Coriolis and centrifugal terms, N or Nm
-    contacts: ContactKinematics
-    com: np.ndarray  # m
-    vcom: np.ndarray  # m/s
-    com_drift: np.ndarray  # m/s^2, J_com_dot v
-    J_com: np.ndarray  # (3, nv)
 
 
 def model_terms(
-    P: PinocchioModel,
+    robot: PinocchioModel,
     q: np.ndarray,
     v: np.ndarray,
     points: ContactSet,
     inertia: bool = False,
     inverse: bool = True,
 ) -> ModelTerms:
-    """All terms at (q, v), the inertia matrix itself only if `inertia`, its inverse only if `inverse`; afterwards P.data holds the
-    kinematics every task's `compute` needs (forwardKinematics(q, v, 0), computeJointJacobians(q),
-    updateFramePlacements)."""
-    model, data = P.model, P.data
+    """All terms at (q, v) with the contact points `points`, the inertia matrix itself only if
+    `inertia`, its inverse only if `inverse`; the kinematic pass last, so that the state's data
+    holds it."""
+    model, data = robot.model, robot.data
     H = kernels.symmetric(pin.crba(model, data, q)) if inertia else None
     H_inv = kernels.symmetric(pin.computeMinverse(model, data, q)) if inverse else None
     C = pin.nonLinearEffects(model, data, q, v).copy()
-    # one kinematic pass; the Jacobians and the CoM terms then read it (same bits as from q again)
-    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
-    pin.computeJointJacobians(model, data)
-    pin.updateFramePlacements(model, data)
-    contacts = contact_kinematics(P, v, points)
-    pin.centerOfMass(model, data, pin.KinematicLevel.ACCELERATION, True)
-    com, vcom, com_drift = data.com[0].copy(), data.vcom[0].copy(), data.acom[0].copy()
-    J_com = pin.jacobianCenterOfMass(model, data, False).copy()  # subtree CoMs from centerOfMass
-    return ModelTerms(q, v, H, H_inv, C, contacts, com, vcom, com_drift, J_com)
+    return ModelTerms(RobotState.measure(robot, q, v, points), H, H_inv, C)

@@ -11,34 +11,38 @@ robot fell from every height.)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from fallbench.dynamics.contacts import ContactKinematics
 from fallbench.dynamics.kernels import independent_rows
+from fallbench.dynamics.limits.limit import Limit, LimitRows, Space
 from fallbench.dynamics.objective import SetPoint
+from fallbench.dynamics.state import RobotState
+from fallbench.dynamics.tasks.task import TaskTerms
 
 RANK_TOLERANCE = 1e-6  # relative to a body's largest singular value
 
 
-def normal_acceleration_rows(kinematics: ContactKinematics) -> tuple[np.ndarray, np.ndarray]:
-    """(R, r): independent rows with R q_ddot + r = 0 equivalent to zero normal acceleration of every point."""
-    combined = independent_rows(
-        kinematics.normal_jacobian, kinematics.normal_drift, kinematics.body_of, RANK_TOLERANCE
-    )
-    return combined[:, :-1], combined[:, -1]
+@dataclass
+class ContactLimit(Limit):
+    """Zero normal acceleration of every contact point measured with the state."""
+
+    def compute(self, state: RobotState) -> LimitRows:
+        """Independent rows R q_ddot = -r, equivalent to n'(J q_ddot + J_dot q_dot) = 0 at every point (m/s^2)."""
+        contacts = state.contacts
+        combined = independent_rows(
+            contacts.normal_jacobian, contacts.normal_drift, contacts.body_of, RANK_TOLERANCE
+        )
+        return LimitRows.equal(Space.ACCELERATION, combined[:, :-1], -combined[:, -1])
 
 
 def normal_motion_cost(kinematics: ContactKinematics, weight: float, dt: float) -> SetPoint:
     """Contact points neither sinking in nor lifting off within one control step, as a cost:
     weight |n'(J q_ddot + J_dot q_dot) + n'v / dt|^2."""
-    return SetPoint(
-        weight,
-        kinematics.normal_jacobian,
-        np.zeros(len(kinematics.normals)),
-        kinematics.normal_drift,
-        0.0,
-        1.0 / dt,
-    )
+    motion = TaskTerms(np.zeros(len(kinematics.normals)), kinematics.normal_jacobian, kinematics.normal_drift)
+    return SetPoint(weight, motion, 0.0, 1.0 / dt)
 
 
 def tangential_motion_cost(kinematics: ContactKinematics, weight: float, dt: float) -> list[SetPoint]:
@@ -46,6 +50,9 @@ def tangential_motion_cost(kinematics: ContactKinematics, weight: float, dt: flo
     tasks: with T a projection |T x|^2 = |x|^2 - (n'x)^2, so the whole point motion at `weight` and the
     normal motion at -weight (no projected Jacobian is formed)."""
     whole = SetPoint(
-        weight, kinematics.jacobian, np.zeros(len(kinematics.drift)), kinematics.drift, 0.0, 1.0 / dt
+        weight,
+        TaskTerms(np.zeros(len(kinematics.drift)), kinematics.jacobian, kinematics.drift),
+        0.0,
+        1.0 / dt,
     )
     return [whole, normal_motion_cost(kinematics, -weight, dt)]

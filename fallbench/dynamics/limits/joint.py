@@ -2,11 +2,29 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from fallbench.dynamics.kernels import compiled
+from fallbench.dynamics.limits.limit import Limit, LimitRows, Space
+from fallbench.dynamics.state import RobotState
 
 QDD_BOUND = 1e4  # rad/s^2: bounds beyond this add nothing and would only worsen the conditioning
+
+
+@dataclass
+class JointLimit(Limit):
+    joint_range: np.ndarray  # (actuators, 2) rad, per actuator (MuJoCo order)
+    horizon: float  # s
+
+    def compute(self, state: RobotState) -> LimitRows:
+        """Bounds on q_ddot (rad/s^2, all nv entries) that keep every actuated joint within its range
+        over the horizon (`joint_acceleration_bounds`)."""
+        lower, upper = joint_acceleration_bounds(
+            state.q, state.v, state.robot.actuated_v, self.joint_range, self.horizon
+        )
+        return LimitRows.bounds(Space.ACCELERATION, lower, upper)
 
 
 @compiled

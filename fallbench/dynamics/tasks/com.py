@@ -5,25 +5,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
+
+from fallbench.dynamics.state import RobotState
+from fallbench.dynamics.tasks.task import Task, TaskTerms
 
 
 @dataclass
-class ComTask:
+class ComTask(Task):
     target: np.ndarray  # m, world
 
-    @staticmethod
-    def state(
-        model: pin.Model, data: pin.Data, q: np.ndarray, v: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(CoM position, CoM velocity, drift J_dot v) from one pass with zero acceleration."""
-        pin.centerOfMass(model, data, q, v, np.zeros(model.nv))
-        return data.com[0].copy(), data.vcom[0].copy(), data.acom[0].copy()
-
-    def error(self, com: np.ndarray) -> np.ndarray:
-        """g = c - c_target (m)."""
-        return com - self.target
-
-    @staticmethod
-    def jacobian(model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
-        return pin.jacobianCenterOfMass(model, data, q)
+    def compute(self, state: RobotState) -> TaskTerms:
+        """g = c - c_target (m), the CoM Jacobian and J_com_dot v (m/s^2), from the state's CoM pass."""
+        return TaskTerms(state.com - self.target, state.com_jacobian, state.com_drift)

@@ -10,9 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
+from fallbench.dynamics.state import RobotState
 from fallbench.dynamics.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.task import Task, TaskTerms
 
 
 @dataclass
@@ -23,16 +24,16 @@ class SurfacePair:
 
 
 @dataclass
-class RelativeDistanceTask:
+class RelativeDistanceTask(Task):
     first: SurfacePair
     second: SurfacePair
 
-    def compute(self, model: pin.Model, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(error (1,), Jacobian (1, nv), drift (1,)): eq. 7, eq. 8 and eq. 9."""
-        error, jacobian, drift = 0.0, np.zeros(model.nv), 0.0
+    def compute(self, state: RobotState) -> TaskTerms:
+        """Error d_1 - d_2 (m, (1,)), Jacobian (1, nv) and drift (m/s^2, (1,)): eq. 7, eq. 8 and eq. 9."""
+        error, jacobian, drift = 0.0, np.zeros(state.model.nv), 0.0
         for sign, pair in ((1.0, self.first), (-1.0, self.second)):
-            position, J, J_dot_v = pair.point.kinematics(model, data)
+            position, J, J_dot_v = pair.point.kinematics(state)
             error += sign * float(pair.normal @ (position - pair.surface_point))
             jacobian += sign * pair.normal @ J
             drift += sign * float(pair.normal @ J_dot_v)
-        return np.array([error]), jacobian[None, :], np.array([drift])
+        return TaskTerms(np.array([error]), jacobian[None, :], np.array([drift]))

@@ -9,18 +9,19 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
+from fallbench.dynamics.state import RobotState
 from fallbench.dynamics.tasks.body_point import BodyPoint
+from fallbench.dynamics.tasks.task import Task, TaskTerms
 
 
 @dataclass
-class SurfacePositionTask:
+class SurfacePositionTask(Task):
     point: BodyPoint
     target: np.ndarray  # m, world (the chosen landing point)
     tangents: np.ndarray  # (2, 3) unit rows spanning the surface
 
-    def compute(self, model: pin.Model, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(error T (p - target), Jacobian T J, drift T J_dot q_dot), all (2,) or (2, nv)."""
-        position, J, drift = self.point.kinematics(model, data)
-        return self.tangents @ (position - self.target), self.tangents @ J, self.tangents @ drift
+    def compute(self, state: RobotState) -> TaskTerms:
+        """Error T (p - target) (m), Jacobian T J, drift T J_dot q_dot (m/s^2), all (2,) or (2, nv)."""
+        position, J, drift = self.point.kinematics(state)
+        return TaskTerms(self.tangents @ (position - self.target), self.tangents @ J, self.tangents @ drift)

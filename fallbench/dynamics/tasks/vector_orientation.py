@@ -11,29 +11,28 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from fallbench.dynamics.state import RobotState
+from fallbench.dynamics.tasks.task import Task, TaskTerms
 from fallbench.dynamics.vectors import cross
-
-LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
 @dataclass
-class VectorOrientationTask:
+class VectorOrientationTask(Task):
     frame: str  # Pinocchio frame of the body
     body_vector: np.ndarray  # unit, body coordinates
     target: np.ndarray  # unit, world
 
-    def compute(self, model: pin.Model, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(error g = u - u_target, Jacobian dg/dq, drift J_dot q_dot).
+    def compute(self, state: RobotState) -> TaskTerms:
+        """Error g = u - u_target (unitless), Jacobian dg/dq (1/rad), drift J_dot q_dot (1/s^2).
 
-        Needs forwardKinematics(q, v, 0), computeJointJacobians(q) and updateFramePlacements on
-        `data`. With u = R u_b: u_dot = omega x u, so J = -[u]x J_angular (world-aligned), and
+        With u = R u_b: u_dot = omega x u, so J = -[u]x J_angular (world-aligned), and
         J_dot q_dot = a_drift x u + omega x (omega x u), a_drift the angular acceleration at q_ddot = 0.
         """
-        frame = model.getFrameId(self.frame)
-        u = data.oMf[frame].rotation @ self.body_vector
-        J_angular = pin.getFrameJacobian(model, data, frame, LWA)[3:]
-        omega = pin.getFrameVelocity(model, data, frame, LWA).angular
-        alpha = pin.getFrameClassicalAcceleration(model, data, frame, LWA).angular
+        frame = state.robot.frame_id(self.frame)
+        u = state.frame_placement(frame).rotation @ self.body_vector
+        J_angular = state.frame_jacobian(frame)[3:]
+        omega = state.frame_velocity(frame).angular
+        alpha = state.frame_drift(frame).angular
         jacobian = -pin.skew(u) @ J_angular
         drift = cross(alpha, u) + cross(omega, cross(omega, u))
-        return u - self.target, jacobian, drift
+        return TaskTerms(u - self.target, jacobian, drift)

@@ -23,7 +23,7 @@ import numpy as np
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import pinocchio_for, select_motors
-from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.state import RobotState
 from fallbench.postimpact.adaptive_qp.qp import QPConfig, solve_step
 from fallbench.postimpact.base import GainPolicy
 from fallbench.scenario import Scenario
@@ -59,7 +59,7 @@ class AdaptiveQPPolicy(GainPolicy):
     def after_impact(self, observation: Observation, q_ref: np.ndarray) -> ServoCommand:
         q, v = self.P.state(observation.qpos, observation.qvel)
         if self.com_ref is None:
-            self.com_ref = ComTask.state(self.P.model, self.P.data, q, v)[0]
+            self.com_ref = RobotState.measure(self.P, q, v).com
         points = environment_contacts(self.world.model, observation.data, self.scenario.friction)
         touching = set(points.bodies) - self.selecting_bodies  # the selection only grows: new bodies only
         if touching:

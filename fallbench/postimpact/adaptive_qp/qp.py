@@ -38,9 +38,12 @@ from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactSet
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.kernels import compiled
-from fallbench.dynamics.limits.contact import normal_acceleration_rows, tangential_motion_cost
+from fallbench.dynamics.limits.contact import ContactLimit, tangential_motion_cost
+from fallbench.dynamics.limits.torque import TorqueLimit, TorqueMap
 from fallbench.dynamics.model import PinocchioModel
 from fallbench.dynamics.objective import AccelerationMap, SetPoint
+from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.posture import PostureTask
 from fallbench.dynamics.terms import ModelTerms, model_terms
 
 LAMBDA_SCALE = 100.0  # N per solver unit
@@ -118,19 +121,32 @@ def variable_scale(n_lambda: int, e: np.ndarray, e_dot: np.ndarray) -> np.ndarra
 
 
 def acceleration_map(
-    P: PinocchioModel,
-    terms: ModelTerms,
-    selected: np.ndarray,
-    e: np.ndarray,
-    e_dot: np.ndarray,
-    held_torque: np.ndarray,
+    terms: ModelTerms, selected: np.ndarray, e: np.ndarray, e_dot: np.ndarray, held_torque: np.ndarray
 ) -> AccelerationMap:
     """q_ddot = M (lambda, K_S, B_S) + m from eq. 10 with the non-selected torques known (eq. 15)."""
     assert terms.H_inv is not None, "model_terms(..., inverse=True)"
+    state = terms.state
     M, m = _eliminated_accelerations(
-        terms.H_inv, terms.contacts.force_map, P.actuated_v, selected, e, e_dot, held_torque, terms.C
+        terms.H_inv,
+        state.contacts.force_map,
+        state.robot.actuated_v,
+        selected,
+        e,
+        e_dot,
+        held_torque,
+        terms.C,
     )
     return AccelerationMap(M, m)
+
+
+def torque_map(n_lambda: int, selected: np.ndarray, e: np.ndarray, e_dot: np.ndarray) -> TorqueMap:
+    """tau_S = e_S K_S + e_dot_S B_S (the selected motors' PD torques, eq. 12) on y = (lambda, K_S, B_S)."""
+    n_s = len(selected)
+    matrix = np.zeros((n_s, n_lambda + 2 * n_s))
+    diagonal = np.arange(n_s)
+    matrix[diagonal, n_lambda + diagonal] = e[selected]
+    matrix[diagonal, n_lambda + n_s + diagonal] = e_dot[selected]
+    return TorqueMap(matrix, np.zeros(n_s), selected)
 
 
 @compiled
@@ -161,7 +177,6 @@ def _eliminated_accelerations(
 
 
 def _tasks(
-    P: PinocchioModel,
     terms: ModelTerms,
     points: ContactSet,
     q_ref: np.ndarray,
@@ -169,43 +184,26 @@ def _tasks(
     dt: float,
     config: QPConfig,
 ) -> list[SetPoint]:
-    q_joints = terms.q[7:][P.actuated_v - 6]
+    state = terms.state
+    robot = state.robot
+    posture = PostureTask(q_ref, robot.actuated_v, robot.model.nv).compute(state)
     tasks = [
-        SetPoint(
-            config.w_posture,
-            None,
-            q_joints - q_ref,
-            np.zeros(len(q_ref)),
-            config.posture_kp,
-            config.posture_kv,
-            rows=P.actuated_v,
-        ),
-        SetPoint(
-            config.w_com, terms.J_com, terms.com - com_ref, terms.com_drift, config.com_kp, config.com_kv
-        ),
-        *tangential_motion_cost(terms.contacts, config.w_tangential, dt),
+        SetPoint(config.w_posture, posture, config.posture_kp, config.posture_kv),
+        SetPoint(config.w_com, ComTask(com_ref).compute(state), config.com_kp, config.com_kv),
+        *tangential_motion_cost(state.contacts, config.w_tangential, dt),
     ]
     if config.w_balance > 0 and len(points):
         # capture point xi = c + c_dot / omega driven to the contact centre p at `balance_rate` k:
         # xi_dot = -k (xi - p) <=> c_ddot = -omega k (c - p) - (omega + k) c_dot, a set point on the CoM
-        omega = math.sqrt(GRAVITY / max(terms.com[2] - float(points.positions[:, 2].min()), 0.1))
+        omega = math.sqrt(GRAVITY / max(state.com[2] - float(points.positions[:, 2].min()), 0.1))
         centre = points.positions.mean(axis=0)
         k = config.balance_rate
-        tasks.append(
-            SetPoint(
-                config.w_balance,
-                terms.J_com[:2],
-                (terms.com - centre)[:2],
-                terms.com_drift[:2],
-                omega * k,
-                omega + k,
-            )
-        )
+        horizontal = ComTask(centre).compute(state).select(slice(0, 2))
+        tasks.append(SetPoint(config.w_balance, horizontal, omega * k, omega + k))
     return tasks
 
 
 def build_problem(
-    P: PinocchioModel,
     terms: ModelTerms,
     points: ContactSet,
     selected: np.ndarray,
@@ -220,23 +218,21 @@ def build_problem(
 ) -> QPProblem:
     """The QP at one state; e, e_dot (rad, rad/s), held_torque (Nm, used for the motors not
     selected) and torque_limit per actuator (MuJoCo order); dt the control period (s)."""
-    n_l, n_s = terms.contacts.force_map.shape[1], len(selected)
+    state = terms.state
+    n_l, n_s = state.contacts.force_map.shape[1], len(selected)
     lam, K, B = slice(0, n_l), slice(n_l, n_l + n_s), slice(n_l + n_s, n_l + 2 * n_s)
     scale = variable_scale(n_l, e[selected], e_dot[selected])
-    acceleration = acceleration_map(P, terms, selected, e, e_dot, held_torque)
-    qp = QPBuilder(acceleration, scale, terms.v)
+    acceleration = acceleration_map(terms, selected, e, e_dot, held_torque)
+    qp = QPBuilder(acceleration, scale, state.v, torque_map(n_l, selected, e, e_dot))
 
-    qp.zero_acceleration(*normal_acceleration_rows(terms.contacts))
-    e_s, e_dot_s, limit_s = e[selected], e_dot[selected], torque_limit[selected]
-    torque_rows = np.zeros((n_s, len(scale)))
-    diagonal = np.arange(n_s)
-    torque_rows[diagonal, n_l + diagonal], torque_rows[diagonal, n_l + n_s + diagonal] = e_s, e_dot_s
-    qp.within(torque_rows, -limit_s, limit_s)
+    qp.limit(ContactLimit().compute(state))
+    qp.limit(TorqueLimit(torque_limit).compute(state))
     if config.overdamping_ratio > 0:
         overdamping = np.zeros((n_s, len(scale)))
         overdamping[:, K], overdamping[:, B] = -config.overdamping_ratio * np.eye(n_s), np.eye(n_s)
         qp.within(overdamping, np.zeros(n_s), np.full(n_s, np.inf))
 
+    e_dot_s, limit_s = e_dot[selected], torque_limit[selected]
     b_upper = np.full(n_s, np.inf if config.b_max is None else config.b_max)
     if config.damping_bound_speed > 0:
         b_upper = np.minimum(b_upper, limit_s / np.maximum(np.abs(e_dot_s), config.damping_bound_speed))
@@ -244,7 +240,7 @@ def build_problem(
     qp.bound(K, 0.0, np.inf if config.k_max is None else config.k_max)
     qp.bound(B, 0.0, b_upper)
 
-    qp.cost(_tasks(P, terms, points, q_ref, com_ref, dt, config))
+    qp.cost(_tasks(terms, points, q_ref, com_ref, dt, config))
     qp.regularise(lam, config.w_lambda)
     qp.regularise(slice(n_l, n_l + 2 * n_s), config.w_gains)
     problem = qp.build(config.ridge, equilibrate=True)
@@ -253,7 +249,7 @@ def build_problem(
 
 def solve_step(
     qp: QPSolver,
-    P: PinocchioModel,
+    robot: PinocchioModel,
     q: np.ndarray,
     v: np.ndarray,
     points: ContactSet,
@@ -268,10 +264,10 @@ def solve_step(
     config: QPConfig,
 ) -> tuple[QPResult, QPProblem]:
     started = time.perf_counter()
-    terms = model_terms(P, q, v, points)
+    terms = model_terms(robot, q, v, points)
     modelled = time.perf_counter()
     problem = build_problem(
-        P, terms, points, selected, q_ref, com_ref, e, e_dot, held_torque, torque_limit, dt, config
+        terms, points, selected, q_ref, com_ref, e, e_dot, held_torque, torque_limit, dt, config
     )
     built = time.perf_counter()
     status, solved, iterations, y = qp.solve(problem)

@@ -9,23 +9,19 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.direction.inertia import damped_solve
 
-LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
-
-def foot_to_foot_jacobian(
-    model: pin.Model, data: pin.Data, swing: int, stance: int, columns: np.ndarray
-) -> np.ndarray:
+def foot_to_foot_jacobian(state: RobotState, swing: int, stance: int, columns: np.ndarray) -> np.ndarray:
     """(6, len(columns)): relative twist of the swing foot frame with respect to the stance foot
-    frame per joint velocity; `columns` are Pinocchio velocity indices (the base's are 0-5). Needs computeJointJacobians and updateFramePlacements."""
-    relative = pin.getFrameJacobian(model, data, swing, LWA) - pin.getFrameJacobian(model, data, stance, LWA)
+    frame (Pinocchio frame ids) per joint velocity; `columns` are Pinocchio velocity indices (the base's are 0-5)."""
+    relative = state.frame_jacobian(swing) - state.frame_jacobian(stance)
     return relative[:, columns]
 
 
 def swing_velocity(
-    model: pin.Model,
-    data: pin.Data,
+    state: RobotState,
     swing: int,
     stance: int,
     columns: np.ndarray,
@@ -37,7 +33,7 @@ def swing_velocity(
 ) -> np.ndarray:
     """Joint velocities (rad/s, over `columns`) moving the swing foot frame toward `target` (m, world)
     and `target_rotation`, at `gain` (1/s) and at most `max_speed` (m/s), relative to the stance foot."""
-    placement = data.oMf[swing]
+    placement = state.frame_placement(swing)
     linear = gain * (target - placement.translation)
     speed = float(np.linalg.norm(linear))
     if speed > max_speed:
@@ -46,5 +42,5 @@ def swing_velocity(
     # P_dot_L = 0: the stance foot is meant to stay where it is. Feeding back its measured velocity
     # instead would close a loop through our own command (a pushing swing leg lifts the stance foot).
     return damped_solve(
-        foot_to_foot_jacobian(model, data, swing, stance, columns), np.concatenate([linear, angular]), damping
+        foot_to_foot_jacobian(state, swing, stance, columns), np.concatenate([linear, angular]), damping
     )

@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from fallbench.dynamics.model import pinocchio_for
+from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
@@ -103,11 +104,9 @@ class DirectionStrategy(Strategy):
     # ------------------------------------------------------------------ episode hooks
 
     def start(self, t: float, data: mujoco.MjData) -> None:
-        model, pdata = self.P.model, self.P.data
-        q, _ = self.P.state(data.qpos, data.qvel)
-        pin.framesForwardKinematics(model, pdata, q)
-        self.com_height = float(pin.centerOfMass(model, pdata, q)[2])
-        self.standing = {side: pdata.oMf[f].copy() for side, f in self.frames.items()}
+        state = RobotState.measure(self.P, *self.P.state(data.qpos, data.qvel))
+        self.com_height = float(state.com[2])
+        self.standing = {side: state.frame_placement(f).copy() for side, f in self.frames.items()}
         self.q_ref = (
             data.ctrl.copy()
         )  # the references held so far: the joints stay locked until the control trigger
@@ -115,20 +114,15 @@ class DirectionStrategy(Strategy):
 
     def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None:
         started = time.perf_counter()
-        model, pdata = self.P.model, self.P.data
-        q, v = self.P.state(data.qpos, data.qvel)
-        pin.forwardKinematics(model, pdata, q, v)
-        pin.computeJointJacobians(model, pdata, q)
-        pin.updateFramePlacements(model, pdata)
-        pin.centerOfMass(model, pdata, q, v)
-        com, com_velocity = pdata.com[0].copy(), pdata.vcom[0].copy()
+        state = RobotState.measure(self.P, *self.P.state(data.qpos, data.qvel))
+        com, com_velocity = state.com, state.com_velocity
         xi = capture_point(com, com_velocity)
         if self.plan is None:
             if not self.trigger.update(t, xi):
                 return None
             self._plan(data, com, com_velocity)
         self._track(t, data, com, com_velocity)
-        command = self._control(t, data, q, v, xi)
+        command = self._control(t, data, state, xi)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return command
 
@@ -180,15 +174,15 @@ class DirectionStrategy(Strategy):
         """Whether a foot's contact sensors see the ground (or an object)."""
         return bool((data.sensordata[self.foot_sensors[side]] > 0).any())
 
-    def _swing(self, t: float, data: mujoco.MjData, qdot: np.ndarray) -> None:
+    def _swing(self, t: float, data: mujoco.MjData, state: RobotState, qdot: np.ndarray) -> None:
         """Eq. 5 toward the lifted pose (Lift a Leg) or along the step's swing path (Take a Step)."""
         assert self.plan is not None
-        chosen, config, model, pdata = self.plan.chosen, self.config, self.P.model, self.P.data
+        chosen, config = self.plan.chosen, self.config
         swing = chosen.swing
         assert swing is not None
         stance = next(s for s in self.frames if s != swing)
         frame, home = self.frames[swing], self.standing[swing]
-        position = pdata.oMf[frame].translation
+        position = state.frame_placement(frame).translation
         if chosen.kind == "lift_leg":
             target = home.translation + np.array([0.0, 0.0, config.lift_height])
         else:
@@ -209,8 +203,7 @@ class DirectionStrategy(Strategy):
             target = self.swing_path.waypoint(position)
         columns = self.leg_columns[swing]
         qdot[columns] = swing_velocity(
-            model,
-            pdata,
+            state,
             frame,
             self.frames[stance],
             columns + 6,
@@ -261,9 +254,7 @@ class DirectionStrategy(Strategy):
         if score(float(directions[0]), self.regions, config.w1, config.w2) > 1.0:
             plan.inertia_shaping, self.tracking_switch = "wbis", t
 
-    def _shape(
-        self, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray, qdot: np.ndarray
-    ) -> None:
+    def _shape(self, data: mujoco.MjData, state: RobotState, xi: np.ndarray, qdot: np.ndarray) -> None:
         """Eq. 8 (partial: joints free of the foot placement) or eq. 6 (whole body), about the CoP.
         J_I holds the stance foot on the ground; with both soles down the shaping also keeps the other
         one where it is (zero foot-to-foot twist, eq. 5's Jacobian): a grounded foot cannot follow a
@@ -280,10 +271,13 @@ class DirectionStrategy(Strategy):
             if swing
             else min(
                 self.frames,
-                key=lambda s: float(np.linalg.norm(pdata.oMf[self.frames[s]].translation[:2] - pivot.point)),
+                key=lambda s: float(
+                    np.linalg.norm(state.frame_placement(self.frames[s]).translation[:2] - pivot.point)
+                ),
             )
         )
-        inertia, momentum = inertia_about(model, pdata, q, v, point)
+        # ccrba at the state's (q, v): the state's Jacobians and frame placements stay as they were
+        inertia, momentum = inertia_about(model, pdata, state.q, state.v, point)
         jacobian = inertia_jacobian(model, pdata, point, self.chains[stance])
         error = to_vector(desired_inertia(inertia, momentum, plan.desired)) - to_vector(inertia)
         if plan.inertia_shaping == "wbis":
@@ -297,22 +291,20 @@ class DirectionStrategy(Strategy):
             )
         rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
         if swing is None:
-            held = foot_to_foot_jacobian(model, pdata, self.frames["right"], self.frames["left"], columns + 6)
+            held = foot_to_foot_jacobian(state, self.frames["right"], self.frames["left"], columns + 6)
             qdot[columns] = damped_solve_holding(jacobian[:, columns], rhs, held, self.config.damping)
         else:
             qdot[columns] = damped_solve(jacobian[:, columns], rhs, self.config.damping)
 
-    def _control(
-        self, t: float, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, xi: np.ndarray
-    ) -> ServoCommand:
+    def _control(self, t: float, data: mujoco.MjData, state: RobotState, xi: np.ndarray) -> ServoCommand:
         assert self.plan is not None
         qdot = np.zeros(self.P.model.nv - 6)
         if self.plan.chosen.swing is not None and self.step_done is None:
-            self._swing(t, data, qdot)
+            self._swing(t, data, state, qdot)
             self._within_speed_limits(qdot)
         if self.plan.inertia_shaping and self.plan.desired is not None:
             placed = qdot.copy()
-            self._shape(data, q, v, xi, qdot)
+            self._shape(data, state, xi, qdot)
             shaping = qdot - placed
             self._within_speed_limits(
                 shaping

@@ -21,16 +21,18 @@ from typing import Any, Literal
 import mujoco
 import numpy as np
 
-from fallbench.dynamics.contacts import environment_contacts
+from fallbench.dynamics.contacts import ContactSet, environment_contacts
 from fallbench.dynamics.dense_qp import make_solver
 from fallbench.dynamics.fall_direction import FallDirection, fall_class, heading
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.dynamics.objective import SetPoint
+from fallbench.dynamics.state import RobotState
 from fallbench.dynamics.tasks.body_point import BodyPoint
-from fallbench.dynamics.tasks.com import ComTask
+from fallbench.dynamics.tasks.point import PointTask
 from fallbench.dynamics.tasks.posture import PostureTask
 from fallbench.dynamics.tasks.relative_distance import RelativeDistanceTask, SurfacePair
 from fallbench.dynamics.tasks.surface_position import SurfacePositionTask
+from fallbench.dynamics.tasks.task import TaskTerms
 from fallbench.dynamics.tasks.vector_orientation import VectorOrientationTask
 from fallbench.dynamics.terms import model_terms
 from fallbench.dynamics.vectors import UP, cross
@@ -142,23 +144,23 @@ class ReshapeController:
     def start(self, qpos: np.ndarray, qvel: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
         """At fall detection: references from the measured joints, CoM for the fall direction."""
         pq, pv = self.P.state(qpos, qvel)
-        self.direction = FallDirection(ComTask.state(self.P.model, self.P.data, pq, pv)[0])
+        self.direction = FallDirection(RobotState.measure(self.P, pq, pv).com)
         self.q_ref, self.qd_ref = q.copy(), qd.copy()
 
     def _landing_tasks(
         self,
         t: float,
+        state: RobotState,
         direction: np.ndarray,
         facing: str,
         torso_rotation: np.ndarray,
         stick: tuple[np.ndarray, float],
     ) -> list[SetPoint]:
-        model, pdata = self.P.model, self.P.data
         lateral = cross(UP, direction)
         support, drop = stick
         pairs, tasks = [], []
         for side, arm in self.world.robot.arms.items():
-            shoulder = pdata.oMi[model.getJointId(arm.shoulder_joint)].translation - drop * UP
+            shoulder = state.data.oMi[state.model.getJointId(arm.shoulder_joint)].translation - drop * UP
             pivot = support + float((shoulder - support) @ lateral) * lateral
             chosen = choose(
                 landing_candidates(
@@ -169,81 +171,24 @@ class ReshapeController:
                 continue
             self.landings.append(Landing(t, side, chosen))
             surface = chosen.surface
-            error, J, drift = SurfacePositionTask(self.wrists[side], chosen.bip, surface.tangents).compute(
-                model, pdata
-            )
-            tasks.append(
-                SetPoint(
-                    self.cfg.w_landing, self._select(J), error, drift, self.cfg.task_kp, self.cfg.task_kv
-                )
-            )
+            landing = SurfacePositionTask(self.wrists[side], chosen.bip, surface.tangents).compute(state)
+            tasks.append(self._set_point(self.cfg.w_landing, self._select(landing)))
             pairs.append(SurfacePair(self.wrists[side], chosen.bip, surface.normal))
         if len(pairs) == 2:
-            error, J, drift = RelativeDistanceTask(*pairs).compute(model, pdata)
-            tasks.append(
-                SetPoint(
-                    self.cfg.w_relative_distance,
-                    self._select(J),
-                    error,
-                    drift,
-                    self.cfg.task_kp,
-                    self.cfg.task_kv,
-                )
-            )
+            synchronised = RelativeDistanceTask(*pairs).compute(state)
+            tasks.append(self._set_point(self.cfg.w_relative_distance, self._select(synchronised)))
         return tasks
 
     def step(self, t: float, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> ServoCommand:
         """One control step before impact: references integrated from the QP's accelerations."""
-        assert self.direction is not None, "start() first"
         started = time.perf_counter()
-        world, cfg, model = self.world, self.cfg, self.P.model
+        world, cfg = self.world, self.cfg
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
         terms = model_terms(self.P, q, v, points, inertia=True, inverse=False)
-        torso_rotation = world.robot.torso_frame(
-            self.P.data.oMf[self.P.frame_id(world.robot.torso_body)].rotation
-        )
-        direction = self.direction.update(terms.com, torso_rotation[:, 2])
-        self.classes.append(fall_class(direction, torso_rotation))
-        facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"
-        lateral_target = cross(UP, direction) * (1.0 if facing == "front" else -1.0)
-        orientation = VectorOrientationTask(
-            world.robot.torso_body, world.robot.torso_axis("left"), lateral_target
-        )
-        error, J, drift = orientation.compute(model, self.P.data)
-        tasks = [SetPoint(cfg.w_orientation, J, error, drift, cfg.task_kp, cfg.task_kv)]
-        support = points.positions.mean(axis=0) if len(points) else self._feet_on_ground(data)
-        tasks += self._landing_tasks(
-            t, direction, facing, torso_rotation, self._stick(data, support, direction)
-        )
-        if facing == "back":
-            tasks += self._hands_below_butt(data)
-        elif len(self.knees) == 2:
-            floor = [SurfacePair(knee, np.zeros(3), UP) for knee in self.knees]
-            error, J, drift = RelativeDistanceTask(*floor).compute(model, self.P.data)
-            tasks.append(SetPoint(cfg.w_knees_level, J, error, drift, cfg.task_kp, cfg.task_kv))
-        q_joints = q[7:][self.P.actuated_v - 6]
-        posture = self.postures["side" if self.classes[0] in ("left", "right") else "front/back"]
-        error = posture.error(q_joints)
-        for rows, weight in (
-            (~self.legs, cfg.w_posture),
-            (self.legs, cfg.w_leg_posture),
-        ):  # a selection: velocity rows
-            tasks.append(
-                SetPoint(
-                    weight,
-                    None,
-                    error[rows],
-                    posture.drift()[rows],
-                    cfg.task_kp,
-                    cfg.task_kv,
-                    rows=posture.joint_v[rows],
-                )
-            )
+        tasks = self._tasks(t, data, terms.state, points)
         problem = build_reshape_problem(
-            self.P,
             terms,
-            points,
             tasks,
             world.torque_limit,
             world.joint_range,
@@ -267,8 +212,42 @@ class ReshapeController:
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
 
+    def _tasks(self, t: float, data: mujoco.MjData, state: RobotState, points: ContactSet) -> list[SetPoint]:
+        """The reshaping tasks of this step (see the module's docstring)."""
+        assert self.direction is not None, "start() first"
+        world, cfg = self.world, self.cfg
+        torso_rotation = world.robot.torso_frame(
+            state.frame_placement(self.P.frame_id(world.robot.torso_body)).rotation
+        )
+        direction = self.direction.update(state.com, torso_rotation[:, 2])
+        self.classes.append(fall_class(direction, torso_rotation))
+        facing = "front" if float(direction @ heading(torso_rotation)) >= 0 else "back"
+        lateral_target = cross(UP, direction) * (1.0 if facing == "front" else -1.0)
+        orientation = VectorOrientationTask(
+            world.robot.torso_body, world.robot.torso_axis("left"), lateral_target
+        )
+        tasks = [self._set_point(cfg.w_orientation, orientation.compute(state))]
+        support = points.positions.mean(axis=0) if len(points) else self._feet_on_ground(data)
+        tasks += self._landing_tasks(
+            t, state, direction, facing, torso_rotation, self._stick(data, state, support, direction)
+        )
+        if facing == "back":
+            tasks += self._hands_below_butt(data, state)
+        elif len(self.knees) == 2:
+            floor = [SurfacePair(knee, np.zeros(3), UP) for knee in self.knees]
+            tasks.append(self._set_point(cfg.w_knees_level, RelativeDistanceTask(*floor).compute(state)))
+        kind = "side" if self.classes[0] in ("left", "right") else "front/back"
+        posture = self.postures[kind].compute(state)
+        for rows, weight in ((~self.legs, cfg.w_posture), (self.legs, cfg.w_leg_posture)):
+            tasks.append(self._set_point(weight, posture.select(rows)))
+        return tasks
+
+    def _set_point(self, weight: float, terms: TaskTerms) -> SetPoint:
+        """A task in the cost, at the gains every reshaping task shares."""
+        return SetPoint(weight, terms, self.cfg.task_kp, self.cfg.task_kv)
+
     def _stick(
-        self, data: mujoco.MjData, support: np.ndarray, direction: np.ndarray
+        self, data: mujoco.MjData, state: RobotState, support: np.ndarray, direction: np.ndarray
     ) -> tuple[np.ndarray, float]:
         """The stick's ground pivot (002 Sec. IV-B) and the height (m) the robot drops onto it.
 
@@ -279,7 +258,7 @@ class ReshapeController:
         height). `knees_and_buttocks` adds the buttocks' lowest corner, for back falls."""
         if self.cfg.pivot == "contacts":
             return support, 0.0
-        candidates = [knee.kinematics(self.P.model, self.P.data)[0] for knee in self.knees]
+        candidates = [knee.position(state) for knee in self.knees]
         if self.cfg.pivot == "knees_and_buttocks":
             candidates.append(self._butt_point(data))
         lead = max(candidates, key=lambda point: float(point @ direction))
@@ -292,31 +271,24 @@ class ReshapeController:
         corners = world_corners(data, self.butt_geoms, self.butt_corners)
         return corners[np.argmin(corners[:, 2])]
 
-    def _hands_below_butt(self, data: mujoco.MjData) -> list[SetPoint]:
+    def _hands_below_butt(self, data: mujoco.MjData, state: RobotState) -> list[SetPoint]:
         """000 Sec. IV-C: the wrists below the buttocks by `hands_below_butt`, along the vertical."""
-        target = float(self._butt_point(data)[2]) - self.cfg.hands_below_butt
-        tasks = []
-        for wrist in self.wrists.values():
-            position, J, drift = wrist.kinematics(self.P.model, self.P.data)
-            tasks.append(
-                SetPoint(
-                    self.cfg.w_hands_below_butt,
-                    self._select(J[2:3]),
-                    np.array([position[2] - target]),
-                    drift[2:3],
-                    self.cfg.task_kp,
-                    self.cfg.task_kv,
-                )
+        target = np.array([0.0, 0.0, float(self._butt_point(data)[2]) - self.cfg.hands_below_butt])
+        return [
+            self._set_point(
+                self.cfg.w_hands_below_butt,
+                self._select(PointTask(wrist, target, slice(2, 3)).compute(state)),
             )
-        return tasks
+            for wrist in self.wrists.values()
+        ]
 
-    def _select(self, jacobian: np.ndarray) -> np.ndarray:
-        """A task's Jacobian without the leg columns unless `landing_uses_legs`."""
+    def _select(self, terms: TaskTerms) -> TaskTerms:
+        """A task's terms without the leg columns of its Jacobian unless `landing_uses_legs`."""
         if self.cfg.landing_uses_legs:
-            return jacobian
-        selected = jacobian.copy()
-        selected[:, self.leg_v] = 0.0
-        return selected
+            return terms
+        jacobian = terms.jacobian.copy()
+        jacobian[:, self.leg_v] = 0.0
+        return dataclasses.replace(terms, jacobian=jacobian)
 
     def _feet_on_ground(self, data: mujoco.MjData) -> np.ndarray:
         """No contact at all (airborne): the feet's ground projection stands in for the pivot."""

@@ -6,9 +6,10 @@ cone coefficients of the current contacts (lambda / 100 for conditioning). The a
 stay variables here (eliminating them through H^-1 made this QP slower to solve: the motor torques
 it would leave as variables are many and the cost becomes dense).
 
-Constraints: floating-base rows of the dynamics, H_b q_ddot + C_b = (J' G)_b lambda; every motor's
-torque within its limit; joint accelerations that keep each joint inside its range over a short
-horizon.
+Constraints: floating-base rows of the dynamics, H_b q_ddot + C_b = (J' G)_b lambda; limits from
+the shared layer: every motor's torque within its limit (`TorqueLimit`, the torques given by the
+motor rows of the dynamics), joint accelerations that keep each joint inside its range over a short
+horizon (`JointLimit`).
 Cost: sum of weighted set-point tasks |J q_ddot + J_dot q_dot + kp g + kv g_dot|^2 (eq. 1); contact
 points neither sinking in nor lifting off within one control step, as a stiff cost (as equalities
 they made 12 % of the steps of the shipped sweep fail, mostly once a foot tipped over an edge; as
@@ -22,12 +23,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from fallbench.dynamics.builder import QPBuilder
-from fallbench.dynamics.contacts import ContactSet
 from fallbench.dynamics.dense_qp import QPSolver, ScaledQP
 from fallbench.dynamics.kernels import compiled
 from fallbench.dynamics.limits.contact import normal_motion_cost
-from fallbench.dynamics.limits.joint import joint_acceleration_bounds
-from fallbench.dynamics.model import PinocchioModel
+from fallbench.dynamics.limits.joint import JointLimit
+from fallbench.dynamics.limits.torque import TorqueLimit, TorqueMap
 from fallbench.dynamics.objective import AccelerationMap, SetPoint
 from fallbench.dynamics.terms import ModelTerms
 
@@ -41,9 +41,7 @@ class ReshapeProblem(ScaledQP):
 
 
 def build_reshape_problem(
-    P: PinocchioModel,
     terms: ModelTerms,
-    points: ContactSet,
     tasks: list[SetPoint],
     torque_limit: np.ndarray,
     joint_range: np.ndarray,
@@ -53,29 +51,29 @@ def build_reshape_problem(
     w_contact: float,
 ) -> ReshapeProblem:
     """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s)."""
-    nv = P.model.nv
+    state = terms.state
+    nv = state.model.nv
     assert terms.H is not None, "model_terms(..., inertia=True)"
-    JtG = terms.contacts.force_map
+    JtG = state.contacts.force_map
     n_l = JtG.shape[1]
     qdd, lam = slice(0, nv), slice(nv, nv + n_l)
     acceleration = AccelerationMap.first_variables(nv, nv + n_l)
-    qp = QPBuilder(acceleration, np.concatenate([np.ones(nv), np.full(n_l, LAMBDA_SCALE)]), terms.v)
+    base_rows, base_values, torque_rows, torque_bias = _dynamics_rows(
+        terms.H, JtG, terms.C, state.robot.actuated_v
+    )
+    torques = TorqueMap(torque_rows, torque_bias, np.arange(len(torque_bias)))
+    qp = QPBuilder(acceleration, np.concatenate([np.ones(nv), np.full(n_l, LAMBDA_SCALE)]), state.v, torques)
 
-    base_rows, base_values, torque_rows, torque_low, torque_high = _dynamics_rows(
-        terms.H, JtG, terms.C, P.actuated_v, torque_limit
-    )
     qp.equal(base_rows, base_values)
-    qp.within(torque_rows, torque_low, torque_high)
-    qp.bound(
-        qdd, *joint_acceleration_bounds(terms.q, terms.v, P.actuated_v, joint_range, LIMIT_HORIZON_STEPS * dt)
-    )
+    qp.limit(TorqueLimit(torque_limit).compute(state))
+    qp.limit(JointLimit(joint_range, LIMIT_HORIZON_STEPS * dt).compute(state))
     qp.bound(lam, 0.0, np.inf)
 
     costs = list(tasks)
-    if len(points):
+    if len(state.contacts):
         # contacts neither sink in nor lift off: a stiff cost rather than an equality, so that a
         # tipping foot's contact points cannot make the problem infeasible
-        costs.append(normal_motion_cost(terms.contacts, w_contact, dt))
+        costs.append(normal_motion_cost(state.contacts, w_contact, dt))
     qp.cost(costs)
     qp.regularise(qdd, w_qdd)
     qp.regularise(lam, w_lambda)
@@ -84,18 +82,17 @@ def build_reshape_problem(
 
 @compiled
 def _dynamics_rows(
-    H: np.ndarray, force_map: np.ndarray, C: np.ndarray, motors: np.ndarray, torque_limit: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    H: np.ndarray, force_map: np.ndarray, C: np.ndarray, motors: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rows on y = (q_ddot, lambda) of the dynamics H q_ddot + C - J'G lambda = tau: on the floating
-    base tau = 0, (H_b, -(J'G)_b) y = -C_b; on the motors |tau| <= tau_max,
-    -tau_max - C_m <= (H_m, -(J'G)_m) y <= tau_max - C_m. Returns (base rows, -C_b, motor rows, lower, upper)."""
+    base tau = 0, (H_b, -(J'G)_b) y = -C_b; on the motors tau_m = (H_m, -(J'G)_m) y + C_m (the torque
+    map of the torque limits). Returns (base rows, -C_b, motor rows, C_m)."""
     nv, n_l = force_map.shape
     base, torque = np.empty((6, nv + n_l)), np.empty((len(motors), nv + n_l))
     base[:, :nv], base[:, nv:] = H[:6], -force_map[:6]
     for k in range(len(motors)):
         torque[k, :nv], torque[k, nv:] = H[motors[k]], -force_map[motors[k]]
-    motor_bias = C[motors]
-    return base, -C[:6], torque, -torque_limit - motor_bias, torque_limit - motor_bias
+    return base, -C[:6], torque, C[motors]
 
 
 def solve_reshape(qp: QPSolver, problem: ReshapeProblem) -> tuple[str, bool, np.ndarray | None]:
