@@ -92,6 +92,25 @@ def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) ->
     )
 
 
+def _foot_chains(world: World) -> dict[int, list[int]]:
+    """Contact body index of each feet-group body -> the indices of the feet-group bodies above it."""
+    feet = [
+        world.contact_bodies.index(b)
+        for b in world.robot.body_groups.get("feet", ())
+        if b in world.contact_bodies
+    ]
+    body_ids = {world.model.body(world.contact_bodies[i]).id: i for i in feet}
+    chains = {}
+    for index in feet:
+        above, parent = [], world.model.body_parentid[world.model.body(world.contact_bodies[index]).id]
+        while parent > 0:
+            if parent in body_ids:
+                above.append(body_ids[parent])
+            parent = world.model.body_parentid[parent]
+        chains[index] = above
+    return chains
+
+
 class Takeover:
     """Which motors follow the gain policy, since when, and toward which pose (002 Sec. V: q_ref is
     the configuration just before impact, taken per motor when it switches)."""
@@ -140,6 +159,7 @@ class Episode:
         self.impacts = ImpactLog(world)
         self.pinocchio = pinocchio_for(world)
         self.landed_bodies = {b for g in LANDED_GROUPS for b in world.robot.body_groups.get(g, ())}
+        self.foot_chains = _foot_chains(world)
         self.fall, self.impact, self.support = (
             make_fall_detector(scenario),
             ImpactDetector(),
@@ -217,9 +237,17 @@ class Episode:
             )
             and not detected
         ):
-            self.seen = found
-            self.impact.start(self.names(found))
+            self.seen = self.whole_feet(found)
+            self.impact.start(self.names(self.seen))
             self.strategy.start(t, self.data)
+
+    def whole_feet(self, touching: np.ndarray) -> np.ndarray:
+        """The touching bodies and, for each foot among them, the foot's other bodies up its chain:
+        an ankle link that touches while its sole is on the floor is the foot rolling, not an impact."""
+        whole = touching.copy()
+        for body, foot in self.foot_chains.items():
+            whole[foot] |= touching[body]
+        return whole
 
     def detect_impacts(self, found: np.ndarray) -> None:
         """Log bodies touching for the first time since detection (planned footsteps excepted) at
