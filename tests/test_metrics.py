@@ -20,8 +20,8 @@ def test_imu_peaks_raw_and_smoothed() -> None:
     acc[50, 2] = 109.81  # one-sample spike of +100 m/s^2 at 1 kHz
     acc[50, 0] = -30.0
     m = imu_metrics(acc, dt=0.001)
-    assert m["imu_peak_z"] == 109.81
-    assert np.isclose(m["imu_peak_norm"], np.hypot(109.81, 30.0))
+    assert m["imu_peak_z_raw"] == 109.81
+    assert np.isclose(m["imu_peak_norm_raw"], np.hypot(109.81, 30.0))
     # a 5-sample moving average spreads the spike: 9.81 + 100 / 5
     assert np.isclose(m["imu_peak_z_5ms"], 29.81)
 
@@ -76,15 +76,19 @@ def test_damage_measures_on_hand_made_signals() -> None:
         "head": np.zeros(4),
         "torso": np.array([0.0, 98.1, 0, 0]),
     }
-    row = damage_metrics(rec, forces)
+    row = damage_metrics(rec, forces, dt=0.001, force_window=0.001)  # one-sample window: the peaks
     assert row["contact_force_peak_bw"] == pytest.approx(10.0)  # 981 N on a 10 kg robot
     assert row["contact_force_peak_head_bw"] == 0.0 and row["contact_force_peak_torso_bw"] == pytest.approx(
         1.0
     )
+    # Over 2 ms the worst window holds 981 + 196.2 N for 1 ms each: 588.6 N = 6 body weights.
+    assert damage_metrics(rec, forces, dt=0.001, force_window=0.002)[
+        "contact_force_peak_bw"
+    ] == pytest.approx(6.0)
     assert row["torque_peak_legs"] == 150.0 and row["torque_peak_arms"] == 30.0
     assert row["vulnerable_hits"] == 1
     sensordata[1, 0] = 1  # and the head
-    assert damage_metrics(rec, forces)["vulnerable_hits"] == 2
+    assert damage_metrics(rec, forces, dt=0.001)["vulnerable_hits"] == 2
 
 
 def test_landing_window_metrics_see_only_the_landing() -> None:
@@ -113,13 +117,13 @@ def test_landing_window_metrics_see_only_the_landing() -> None:
         impact=0.45,
         takeover=0.451,
     )
-    assert row["imu_peak_z_landing"] == 80.0
-    assert np.isclose(row["imu_peak_norm_landing"], 100.0)  # hypot(60, 80)
+    assert row["imu_peak_z_landing_raw"] == 80.0
+    assert np.isclose(row["imu_peak_norm_landing_raw"], 100.0)  # hypot(60, 80)
     assert row["torque_demand_ratio_landing"] == 3.0
     assert row["qp_failures_landing"] == 2  # 0.455 and 0.6 (the window's end is included)
     assert np.isclose(row["takeover_delay"], 0.001)
     shorter = landing_metrics(time, acc, demand, limit, np.array([0.451, 0.47]), [], 0.45, 0.451, length=0.02)
-    assert shorter["torque_demand_ratio_landing"] == 0.0 and shorter["imu_peak_z_landing"] == 80.0
+    assert shorter["torque_demand_ratio_landing"] == 0.0 and shorter["imu_peak_z_landing_raw"] == 80.0
 
 
 def test_landing_metrics_without_impact_are_empty() -> None:
@@ -127,5 +131,5 @@ def test_landing_metrics_without_impact_are_empty() -> None:
     row = landing_metrics(
         time, np.ones((10, 3)), np.ones((10, 2)), np.ones(2), np.full(2, np.nan), [], None, None
     )
-    assert np.isnan(row["imu_peak_z_landing"]) and np.isnan(row["torque_demand_ratio_landing"])
+    assert np.isnan(row["imu_peak_z_landing_raw"]) and np.isnan(row["torque_demand_ratio_landing"])
     assert row["qp_failures_landing"] == 0 and np.isnan(row["takeover_delay"])

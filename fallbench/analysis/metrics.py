@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 import pandas as pd
 
+from fallbench.analysis.sensors import FORCE_WINDOW, ImuModel, window_mean_peak
 from fallbench.dynamics.fall_direction import fall_class, horizontal_unit
 from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
 from fallbench.sim.events import METHODS
@@ -56,13 +57,29 @@ def _peak(signal: np.ndarray) -> float:
 
 
 def imu_metrics(acc: np.ndarray, dt: float) -> dict[str, float]:
+    """Peaks of the raw accelerometer, sampled at every physics step (m/s^2): they grow as the step
+    shrinks and samples more of an impact's spike; kept beside the modelled IMU's peaks."""
     window = max(round(SMOOTHING_WINDOW / dt), 1)
     norm = np.linalg.norm(acc, axis=1)
     return {
-        "imu_peak_z": _peak(acc[:, 2]),
-        "imu_peak_norm": _peak(norm),
+        "imu_peak_z_raw": _peak(acc[:, 2]),
+        "imu_peak_norm_raw": _peak(norm),
         "imu_peak_z_5ms": _peak(moving_average(acc[:, 2], window)),
         "imu_peak_norm_5ms": _peak(moving_average(norm, window)),
+    }
+
+
+def imu_model_metrics(
+    samples_time: np.ndarray, samples: np.ndarray, impact: float | None
+) -> dict[str, float]:
+    """Peaks of the modelled IMU's output (m/s^2): over the run, and over the landing window."""
+    window = landing_mask(samples_time, impact)
+    norm = np.linalg.norm(samples, axis=1)
+    return {
+        "imu_peak_z": _peak(samples[:, 2]),
+        "imu_peak_norm": _peak(norm),
+        "imu_peak_z_landing": _peak(samples[window, 2]),
+        "imu_peak_norm_landing": _peak(norm[window]),
     }
 
 
@@ -84,15 +101,16 @@ def landing_metrics(
     takeover: float | None,
     length: float = LANDING_WINDOW,
 ) -> dict[str, float]:
-    """The landing window's IMU peaks (m/s^2), PD demand / limit of the joints already under the gain
-    policy (switch_time <= t), QP failures, and the delay from first contact to takeover (s)."""
+    """The landing window's raw IMU peaks (m/s^2, at the physics rate), PD demand / limit of the
+    joints already under the gain policy (switch_time <= t), QP failures, and the delay from first
+    contact to takeover (s)."""
     window = landing_mask(time, impact, length)
     under_policy = (switch_time[None, :] <= time[:, None] + 1e-9) & window[:, None]
     ratio = np.abs(demand) / limit
     failures = landing_mask(np.asarray(failure_times, dtype=float), impact, length)
     return {
-        "imu_peak_z_landing": _peak(acc[window, 2]),
-        "imu_peak_norm_landing": _peak(np.linalg.norm(acc[window], axis=1)),
+        "imu_peak_z_landing_raw": _peak(acc[window, 2]),
+        "imu_peak_norm_landing_raw": _peak(np.linalg.norm(acc[window], axis=1)),
         "torque_demand_ratio_landing": float(ratio[under_policy].max())
         if under_policy.any()
         else float("nan"),
@@ -213,17 +231,22 @@ def impact_metrics(rec: Recording) -> dict[str, object]:
     return row
 
 
-def damage_metrics(rec: Recording, forces: dict[str, np.ndarray]) -> dict[str, float]:
+def damage_metrics(
+    rec: Recording, forces: dict[str, np.ndarray], dt: float, force_window: float = FORCE_WINDOW
+) -> dict[str, float]:
     """Damage measures as the learned fall-control literature reports them (SafeFall: peak contact
-    force, peak joint torque, hits on vulnerable parts): peak forces in body weights (m g), the
-    peak applied torque per joint chain (Nm), and how many vulnerable parts touched the environment."""
+    force, peak joint torque, hits on vulnerable parts): peak forces (mean over `force_window` s) in
+    body weights (m g), the peak applied torque per joint chain (Nm), and how many vulnerable parts
+    touched the environment."""
     world = rec.world
     weight = float(world.model.body_subtreemass[world.root_body]) * 9.81
     row: dict[str, float] = {}
     for group in BODY_WEIGHT_GROUPS:
         name = "contact_force_peak" + ("" if group == "total" else f"_{group}")
         row[f"{name}_bw"] = (
-            float(forces[group].max()) / weight if group in forces and len(forces[group]) else float("nan")
+            window_mean_peak(forces[group], dt, force_window) / weight
+            if group in forces and len(forces[group])
+            else float("nan")
         )
     for chain, pattern in world.robot.torque_chains.items():
         joints = [j for j, name in enumerate(world.joint_names) if re.fullmatch(pattern, name)]
@@ -250,89 +273,114 @@ def replay_columns(rec: Recording) -> dict[str, np.ndarray]:
 
 
 def compute_metrics(rec: Recording) -> dict[str, object]:
-    world, scenario = rec.world, rec.scenario
-    dt = scenario.physics_dt
-    q = rec.qpos[:, world.qpos_adr]
-    qd = rec.qvel[:, world.qvel_adr]
-    margins = joint_limit_margins(q, world.joint_range)
-    knees = [world.joint_names.index(j) for j in world.robot.knee_joints]
-    demand = pd_demand(rec.kp, rec.kd, rec.q_ref, rec.qd_ref, q, qd)
-    forces = group_forces(rec)
+    """One run's row: sensor peaks, joints and torques, the landing, timing, outcome and the
+    controllers' own statistics."""
     impact = first_contact_time(rec)
-    base_height = rec.qpos[:, 2]
-    standing = world.robot.posture_base_height.get(scenario.initial.posture, float(base_height[0]))
-
+    switched = rec.switch_time[np.isfinite(rec.switch_time)]
+    takeover = float(switched.min()) if len(switched) else None  # s: the first motor under the policy
+    forces = group_forces(rec)
     row: dict[str, object] = {}
-    row.update(imu_metrics(world.sensor(rec.sensordata, "imu_acc"), dt))
-    row["knee_limit_margin"] = float(margins[:, knees].min())
-    row["joint_limit_hits"] = int(np.count_nonzero((margins < -LIMIT_HIT_TOLERANCE).any(axis=0)))
-    row.update(torque_metrics(rec.actuator_force, demand, world.torque_limit, dt))
-    row.update(
-        landing_metrics(
-            rec.time,
-            world.sensor(rec.sensordata, "imu_acc"),
-            demand,
-            world.torque_limit,
-            rec.switch_time,
-            rec.policy_failure_times,
-            impact,
-            rec.impact_time,
-        )
-    )
-    row["contact_force_peak"] = float(forces["total"].max())
-    for group in world.contact_groups:
-        row[f"contact_force_peak_{group}"] = float(forces[group].max())
-    row.update(damage_metrics(rec, forces))
-    if impact is not None:
-        window = (rec.time >= impact) & (rec.time < impact + IMPULSE_WINDOW)
-        row["impulse"] = float(forces["total"][window].sum() * dt)
-        at = int(np.searchsorted(rec.time, impact))
-        row["impact_speed"] = float(np.linalg.norm(world.sensor(rec.sensordata[at], "base_linvel")))
-    else:
-        row["impulse"] = row["impact_speed"] = float("nan")
+    row.update(_imu_and_joints(rec, impact, takeover))
+    row.update(_forces(rec, forces, impact))
     row["impact_time"] = float("nan") if impact is None else impact
-    row["policy_switch_time"] = float("nan") if rec.impact_time is None else float(rec.impact_time)
+    row["policy_switch_time"] = float("nan") if takeover is None else takeover
     row["fall_time"] = float("nan") if rec.fall_time is None else float(rec.fall_time)
     row["fall_reason"] = rec.fall_reason
     row.update(fall_lead_times(rec, impact))
     row["first_contact_bodies"] = ",".join(rec.impact_bodies)
-    row["final_base_height"] = float(base_height[-1])
-    row["fell"] = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)
+    row.update(_outcome(rec))
+    row["controller_ms_median"] = float(np.median(rec.controller_ms))
+    row.update(impact_metrics(rec))
+    row.update(_controller_statistics(rec, row))
+    row["sim_steps"] = int(rec.steps)
+    row["sim_time"] = float(rec.steps * rec.scenario.physics_dt)
+    return row
+
+
+def _imu_and_joints(rec: Recording, impact: float | None, takeover: float | None) -> dict[str, object]:
+    """The modelled and raw IMU peaks, joint limits, torques and the landing window."""
+    world, scenario, dt = rec.world, rec.scenario, rec.scenario.physics_dt
+    q, qd = rec.qpos[:, world.qpos_adr], rec.qvel[:, world.qvel_adr]
+    margins = joint_limit_margins(q, world.joint_range)
+    knees = [world.joint_names.index(j) for j in world.robot.knee_joints]
+    demand = pd_demand(rec.kp, rec.kd, rec.q_ref, rec.qd_ref, q, qd)
+    acc = world.sensor(rec.sensordata, "imu_acc")
+    sensors = scenario.sensors
+    imu = ImuModel(sensors.imu_rate, sensors.imu_bandwidth, sensors.imu_filter_order)
+    row: dict[str, object] = {}
+    row.update(imu_model_metrics(*imu.read(rec.time, acc), impact))
+    row.update(imu_metrics(acc, dt))
+    row["knee_limit_margin"] = float(margins[:, knees].min())
+    row["joint_limit_hits"] = int(np.count_nonzero((margins < -LIMIT_HIT_TOLERANCE).any(axis=0)))
+    row.update(torque_metrics(rec.actuator_force, demand, world.torque_limit, dt))
+    limit, failures = world.torque_limit, rec.policy_failure_times
+    row.update(landing_metrics(rec.time, acc, demand, limit, rec.switch_time, failures, impact, takeover))
+    return row
+
+
+def _forces(rec: Recording, forces: dict[str, np.ndarray], impact: float | None) -> dict[str, object]:
+    """Peak contact forces (windowed, N; per step as `*_raw`), damage measures, impulse and impact speed."""
+    world, dt, window = rec.world, rec.scenario.physics_dt, rec.scenario.sensors.force_window
+    row: dict[str, object] = {}
+    for group, force in forces.items():
+        name = "contact_force_peak" + ("" if group == "total" else f"_{group}")
+        row[name] = window_mean_peak(force, dt, window)
+        row[f"{name}_raw"] = float(force.max())
+    row.update(damage_metrics(rec, forces, dt, window))
+    if impact is None:
+        return row | {"impulse": float("nan"), "impact_speed": float("nan")}
+    after = (rec.time >= impact) & (rec.time < impact + IMPULSE_WINDOW)
+    row["impulse"] = float(forces["total"][after].sum() * dt)
+    at = int(np.searchsorted(rec.time, impact))
+    row["impact_speed"] = float(np.linalg.norm(world.sensor(rec.sensordata[at], "base_linvel")))
+    return row
+
+
+def _outcome(rec: Recording) -> dict[str, object]:
+    """Final height, whether the robot fell, and what it did to the obstacles."""
+    world = rec.world
+    base_height = rec.qpos[:, 2]
+    standing = world.robot.posture_base_height.get(rec.scenario.initial.posture, float(base_height[0]))
     obstacle_force = [
         np.linalg.norm(world.sensor(rec.sensordata, n)[:, 1:4], axis=1) for n in world.obstacle_sensors
     ]
-    row["obstacle_contacts"] = int(sum(bool((f > 0).any()) for f in obstacle_force))
-    row["obstacle_force_peak"] = float(max((f.max() for f in obstacle_force), default=0.0))
-    row["controller_ms_median"] = float(np.median(rec.controller_ms))
-    row.update(impact_metrics(rec))
-    row.update(
-        {
-            "qp_solve_ms_median": float("nan"),
-            "qp_solve_ms_p99": float("nan"),
-            "qp_failures": 0,
-            "preimpact_qp_ms_median": float("nan"),
-            "preimpact_qp_ms_p99": float("nan"),
-            "preimpact_qp_solve_ms_median": float("nan"),
-            "preimpact_qp_solve_ms_p99": float("nan"),
-            "preimpact_qp_failures": 0,
-            "preimpact_qp_steps": 0,
-            "fall_class_at_detection": "",
-            "fall_class_before_impact": "",
-        }
-    )
-    row.update(rec.policy_stats)
+    return {
+        "final_base_height": float(base_height[-1]),
+        "fell": bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing),
+        "obstacle_contacts": int(sum(bool((f > 0).any()) for f in obstacle_force)),
+        "obstacle_force_peak": float(max((f.max() for f in obstacle_force), default=0.0)),
+    }
+
+
+# Columns every row has, whichever controllers ran (theirs overwrite them).
+CONTROLLER_DEFAULTS: dict[str, object] = {
+    "qp_solve_ms_median": float("nan"),
+    "qp_solve_ms_p99": float("nan"),
+    "qp_failures": 0,
+    "preimpact_qp_ms_median": float("nan"),
+    "preimpact_qp_ms_p99": float("nan"),
+    "preimpact_qp_solve_ms_median": float("nan"),
+    "preimpact_qp_solve_ms_p99": float("nan"),
+    "preimpact_qp_failures": 0,
+    "preimpact_qp_steps": 0,
+    "fall_class_at_detection": "",
+    "fall_class_before_impact": "",
+}
+
+
+def _controller_statistics(rec: Recording, row: dict[str, object]) -> dict[str, object]:
+    """The policy's and strategy's own statistics, and 004's outcome among objects (every strategy)."""
+    stats: dict[str, object] = dict(CONTROLLER_DEFAULTS) | rec.policy_stats
     if rec.strategy is not None:
-        row.update(rec.strategy.metrics(rec))
-    if scenario.obstacles:  # 004's outcome among objects, for every strategy
-        origin = row.get("control_trigger_time", rec.fall_time)
-        row.update(obstacle_metrics(rec, origin if origin == origin else rec.fall_time))
-        if "predicted_fall_direction_deg" in row:
-            row["fall_direction_error_deg"] = direction_error_deg(
-                row["predicted_fall_direction_deg"], row["actual_fall_direction_deg"]
+        stats.update(rec.strategy.metrics(rec))
+    if rec.scenario.obstacles:
+        origin = stats.get("control_trigger_time", rec.fall_time)
+        stats.update(obstacle_metrics(rec, origin if origin == origin else rec.fall_time))
+        if "predicted_fall_direction_deg" in stats:
+            stats["fall_direction_error_deg"] = direction_error_deg(
+                stats["predicted_fall_direction_deg"], stats["actual_fall_direction_deg"]
             )
-    row["sim_steps"] = int(rec.steps)
-    row["sim_time"] = float(rec.steps * dt)
-    return row
+    return stats
 
 
 def timeseries(rec: Recording) -> pd.DataFrame:

@@ -12,8 +12,10 @@ lands, when all switch. Contacts the strategy planned (a footstep) are not impac
 
 Impacts are watched inside the physics substeps: after fall detection, and until every motor has
 switched, a body touching for the first time (its contact sensor's "found" column) ends the substeps
-and runs a control step at once, so the policy takes over one physics step after first contact
-instead of at the next 5 ms control step. The regular control grid then resumes.
+and runs a control step at once, which logs the impact at the time of the first sample showing the
+contact. The motors of that impact switch to the gain policy `timing.takeover_latency` seconds
+later (the substeps end then too), whatever the physics step. The regular control grid then
+resumes.
 """
 
 from __future__ import annotations
@@ -90,6 +92,25 @@ def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) ->
     )
 
 
+def _foot_chains(world: World) -> dict[int, list[int]]:
+    """Contact body index of each feet-group body -> the indices of the feet-group bodies above it."""
+    feet = [
+        world.contact_bodies.index(b)
+        for b in world.robot.body_groups.get("feet", ())
+        if b in world.contact_bodies
+    ]
+    body_ids = {world.model.body(world.contact_bodies[i]).id: i for i in feet}
+    chains = {}
+    for index in feet:
+        above, parent = [], world.model.body_parentid[world.model.body(world.contact_bodies[index]).id]
+        while parent > 0:
+            if parent in body_ids:
+                above.append(body_ids[parent])
+            parent = world.model.body_parentid[parent]
+        chains[index] = above
+    return chains
+
+
 class Takeover:
     """Which motors follow the gain policy, since when, and toward which pose (002 Sec. V: q_ref is
     the configuration just before impact, taken per motor when it switches)."""
@@ -106,7 +127,7 @@ class Takeover:
             return False
         self.q_ref = np.where(fresh, q, self.q_ref if self.q_ref is not None else q)
         self.time[fresh] = t
-        self.switched = now
+        self.switched = self.switched | now
         return True
 
 
@@ -138,12 +159,14 @@ class Episode:
         self.impacts = ImpactLog(world)
         self.pinocchio = pinocchio_for(world)
         self.landed_bodies = {b for g in LANDED_GROUPS for b in world.robot.body_groups.get(g, ())}
+        self.foot_chains = _foot_chains(world)
         self.fall, self.impact, self.support = (
             make_fall_detector(scenario),
             ImpactDetector(),
             FootSupport(world),
         )
         self.takeover = Takeover(model.nu)
+        self.due: list[tuple[float, np.ndarray]] = []  # (s, motors): switches waiting for the latency
         self.push = _push_force(world, scenario)
         self.pre_command = ServoCommand(
             world.default_kp, world.default_kd, data.qpos[world.qpos_adr].copy(), np.zeros(model.nu)
@@ -173,7 +196,8 @@ class Episode:
             switched_now = False
             found = self.found() if self.fall.time is not None else self.seen
             if self.fall.time is not None:
-                switched_now = self.detect_impacts(t, found)
+                self.detect_impacts(found)
+                switched_now = self.take_over(t)
                 self.strategy_step(t)
             command = self.command(t, found, switched_now)
             self.controller_ms.append(
@@ -213,30 +237,53 @@ class Episode:
             )
             and not detected
         ):
-            self.seen = found
-            self.impact.start(self.names(found))
+            self.seen = self.whole_feet(found)
+            self.impact.start(self.names(self.seen))
             self.strategy.start(t, self.data)
 
-    def detect_impacts(self, t: float, found: np.ndarray) -> bool:
-        """Log bodies touching for the first time since detection (planned footsteps excepted) and
-        switch their chains' motors (all motors, unless the strategy switches per chain); True if
-        any motor switched."""
+    def whole_feet(self, touching: np.ndarray) -> np.ndarray:
+        """The touching bodies and, for each foot among them, the foot's other bodies up its chain:
+        an ankle link that touches while its sole is on the floor is the foot rolling, not an impact."""
+        whole = touching.copy()
+        for body, foot in self.foot_chains.items():
+            whole[foot] |= touching[body]
+        return whole
+
+    def detect_impacts(self, found: np.ndarray) -> None:
+        """Log bodies touching for the first time since detection (planned footsteps excepted) at
+        the time their contact was first sampled, and schedule the switch of their chains' motors
+        (all motors, unless the strategy switches per chain) `timing.takeover_latency` s later."""
         planned = self.strategy.planned_contacts()
         self.unplanned = ~np.isin(self.world.contact_bodies, list(planned)) if planned else True
         fresh = found & ~self.seen & self.unplanned
         if not fresh.any():
-            return False
+            return
         self.seen |= fresh
-        new = self.names(fresh)
-        self.impact.update(t, new)
-        self.impacts.update(t, new, self.data, self.data.qpos, self.data.qvel)
+        new, touched = self.names(fresh), self.first_sampled(fresh)
+        self.impact.update(touched, new)
+        self.impacts.update(touched, new, self.data, self.data.qpos, self.data.qvel)
         takeover = self.takeover
         if self.impact.time is None or takeover.switched.all():
-            return False
+            return
         everything = not self.strategy.per_chain_switching or new & self.landed_bodies
-        now = np.ones(len(takeover.switched), dtype=bool) if everything else takeover.switched.copy()
+        now = np.ones(len(takeover.switched), dtype=bool) if everything else np.zeros_like(takeover.switched)
         now[select_motors(self.pinocchio, new, self.world.joint_names)] = True
-        return takeover.switch(now, self.data.qpos[self.world.qpos_adr], t)
+        self.due.append((touched + self.scenario.timing.takeover_latency, now))
+
+    def first_sampled(self, bodies: np.ndarray) -> float:
+        """s: the first physics sample since the last control step in which one of `bodies` touched
+        (sensor rows are computed from the state at the start of their step)."""
+        if not self.step:
+            return 0.0
+        rows = self.trace.sensordata[self.since : self.step][:, self.world.contact_found_columns[bodies]]
+        return (self.since + int(np.argmax(rows.max(axis=1) > 0))) * self.scenario.physics_dt
+
+    def take_over(self, t: float) -> bool:
+        """Switch the motors whose latency has passed; True if any did."""
+        ready = [motors for when, motors in self.due if when <= t + 1e-9]
+        self.due = [(when, motors) for when, motors in self.due if when > t + 1e-9]
+        q = self.data.qpos[self.world.qpos_adr]
+        return any([self.takeover.switch(motors, q, t) for motors in ready])
 
     def strategy_step(self, t: float) -> None:
         """The strategy's own command on its control grid, until every motor has switched."""
@@ -272,8 +319,8 @@ class Episode:
 
     def physics(self) -> None:
         """The physics substeps up to the next control step, recorded; until every motor has
-        switched, a body touching for the first time ends them at once, so that the policy takes
-        over at the next physics step."""
+        switched, a body touching for the first time ends them at once (to log the impact), and so
+        does a takeover falling due."""
         self.since = self.step
         watching = self.fall.time is not None and not self.takeover.switched.all()
         watched = self.world.contact_found_columns[~self.seen & self.unplanned] if watching else None
@@ -289,6 +336,8 @@ class Episode:
             trace.actuator_force[self.step] = data.actuator_force
             self.step += 1
             if watched is not None and data.sensordata[watched].any():
+                break
+            if self.due and self.step * self.scenario.physics_dt >= min(when for when, _ in self.due) - 1e-9:
                 break
         self.sensor_row = trace.sensordata[self.step - 1]
 
