@@ -10,7 +10,7 @@ from pathlib import Path
 import typer
 
 from fallbench.robots import DEFAULT_ROBOT
-from fallbench.scenario import ScenarioError, ScenarioPoint
+from fallbench.scenario import DEFAULT_PHYSICS_DT, ScenarioError, ScenarioPoint
 
 SHIPPED = [
     Path("scenarios/drop.yaml"),
@@ -258,7 +258,7 @@ def converge_command(
     specs = expand(
         [rung for item in ladders for rung in item.levels], _policies(policies), _strategies(pre_impact)
     )
-    table = convergence_table(ladders, run_sweep(specs, results, jobs=jobs, progress=False))
+    table = convergence_table(ladders, run_sweep(specs, results, jobs=jobs, progress=False), specs)
     if table.empty:
         fail(f"{file}: no run finished with status ok; see `fallbench results`")
     with pd.option_context(
@@ -310,7 +310,7 @@ def export_command(
 def bench_command(
     scenario: Path = typer.Option(Path("scenarios/drop.yaml"), help="Scenario file to measure on."),
     point: list[str] = typer.Option(
-        ["initial.height=1.0", f"robot={DEFAULT_ROBOT}"],
+        ["initial.height=1.0", f"robot={DEFAULT_ROBOT}", f"physics_dt={DEFAULT_PHYSICS_DT}"],
         help="Sweep point of the file: an index, or key=value (repeatable; `robot` matches the point's robot).",
     ),
     pre_impact: str = typer.Option("none", help="Pre-impact strategy of the measured episodes."),

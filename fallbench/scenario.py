@@ -123,6 +123,9 @@ class Detection(Strict):
         return (value,) if isinstance(value, str) else value
 
 
+DEFAULT_PHYSICS_DT = 0.0005  # s (see Scenario.physics_dt)
+
+
 class Timing(Strict):
     """Delays of the robot's controller, in seconds (never in physics steps)."""
 
@@ -130,6 +133,26 @@ class Timing(Strict):
     # one period of 002's 5 ms control loop (the contact is read at one tick, the new gains are
     # written at the next). With 0, the takeover comes one physics step after the contact.
     takeover_latency: Annotated[float, Field(ge=0, le=0.1)] = 0.005
+
+
+class Contact(Strict):
+    """Contact and joint-stop softness: MuJoCo's solref (time constant, damping ratio) and solimp
+    (impedance), on every robot, floor and obstacle geom alike, so a softer floor and a padded robot
+    are the same setting (MuJoCo mixes the two sides of a contact)."""
+
+    # s. 12.5 ms is what robot-environment contacts had before this was a parameter: robot geoms
+    # 5 ms mixed half and half with the floor's MuJoCo default of 20 ms.
+    time_constant: Annotated[float, Field(ge=0.0005, le=0.5)] = 0.0125
+    damping_ratio: Annotated[float, Field(gt=0, le=10)] = 1.0
+    # solimp (d0, d_width, width m): constraint impedance at zero and full penetration, and the
+    # penetration (m) between them
+    impedance: tuple[
+        Annotated[float, Field(ge=0.0001, le=0.9999)],
+        Annotated[float, Field(ge=0.0001, le=0.9999)],
+        Annotated[float, Field(gt=0, le=0.1)],
+    ] = (0.9, 0.95, 0.001)
+    stop_time_constant: Annotated[float, Field(ge=0.0005, le=0.5)] = 0.005  # s, joint limits
+    stop_damping_ratio: Annotated[float, Field(gt=0, le=10)] = 1.0
 
 
 class Sensors(Strict):
@@ -176,13 +199,14 @@ class Scenario(Strict):
     # s. 0.5 ms: on the 002 drops (both robots, four policies) halving it moves the landing IMU peak
     # by 0.9 % median and 3.8 % at worst; from 1 ms the same halving moved it 19.5 % at worst
     # (a knee-stop slam of `zero`), see `fallbench converge` and docs/simulation.md.
-    physics_dt: Annotated[float, Field(ge=1e-4, le=0.01)] = 0.0005
+    physics_dt: Annotated[float, Field(ge=1e-4, le=0.01)] = DEFAULT_PHYSICS_DT
     control_dt: Annotated[float, Field(ge=1e-4, le=0.1)] = 0.005  # s
     friction: Annotated[float, Field(gt=0, le=5)] = 0.7
     initial: Initial = Initial()
     push: Push | None = None
     obstacles: Annotated[list[Obstacle], Field(max_length=64)] = []
     detection: Detection = Detection()
+    contact: Contact = Contact()
     timing: Timing = Timing()
     sensors: Sensors = Sensors()
     # policy (or strategy) name -> parameter overrides: numbers, flags, names, or lists of them
@@ -204,6 +228,13 @@ class Scenario(Strict):
             raise FieldProblem(
                 "control_dt", f"control_dt ({self.control_dt} s) must be a multiple of physics_dt"
             )
+        for key in ("time_constant", "stop_time_constant"):
+            if getattr(self.contact, key) < 2 * self.physics_dt:  # MuJoCo would stiffen it silently
+                raise FieldProblem(
+                    "physics_dt",
+                    f"2 physics steps ({2 * self.physics_dt:g} s) exceed contact.{key} "
+                    f"({getattr(self.contact, key)} s); lower physics_dt or raise contact.{key}",
+                )
         steps = self.duration / self.physics_dt
         if steps > MAX_STEPS_PER_RUN:
             raise FieldProblem(
@@ -540,8 +571,8 @@ def _robot_sizes(path: Path, doc: CommentedMap, spec: ScenarioFile, data: dict[s
     """Scale a point's sizes to its robot and apply the file's per-robot values, in place;
     returns the factors applied, as `scale:*` entries for the point's record."""
     robot = data.get("robot", DEFAULT_ROBOT)
-    if robot not in ROBOTS:
-        return {}  # reported by check_scenario, at the `robot` key
+    if not isinstance(robot, str) or robot not in ROBOTS:
+        return {}  # reported by the schema (a name) or by check_scenario (a robot), at the `robot` key
     applied: dict[str, float] = {}
     if spec.sizes_for is not None and robot != spec.sizes_for:
         scales = robot_scales(robot, spec.sizes_for)

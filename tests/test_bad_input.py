@@ -29,6 +29,12 @@ CASES = {
         "initial.joints.elbow",
         "unknown joint",
     ),
+    "contact_too_fast": (
+        "name: t\nduration: 1\nphysics_dt: 0.01\ncontrol_dt: 0.01\n",
+        3,
+        "physics_dt",
+        "exceed contact.time_constant",
+    ),
     "dt_order": (
         "name: t\nduration: 1\nphysics_dt: 0.01\ncontrol_dt: 0.005\n",
         3,

@@ -101,7 +101,8 @@ def test_new_failure_fails(checked) -> None:
     check, baseline = checked
     _edit_suite(
         baseline,
-        SUITE + "physics_dt: 0.01\ncontrol_dt: 0.01\n"
+        SUITE
+        + "physics_dt: 0.01\ncontrol_dt: 0.01\ncontact: {time_constant: 0.02, stop_time_constant: 0.02}\n"
         "push: {force: 10000, duration: 0.1, start: 0.0, body: gripper_left_fingertip_1_link}\n",
     )
     result = check()

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.results.converge import Ladder, convergence_table, ladder, relative_change
+from fallbench.results.runner import RunSpec
 from fallbench.scenario import Scenario, ScenarioError, ScenarioPoint
 
 
@@ -39,9 +40,14 @@ def test_relative_change_uses_the_floor_near_zero() -> None:
     assert relative_change(float("nan"), float("nan"), "fell") == 0.0
 
 
+def _specs(item: Ladder) -> list[RunSpec]:
+    return [RunSpec(rung, "stiff") for rung in item.levels]
+
+
 def _runs(item: Ladder, values: list[float]) -> pd.DataFrame:
     return pd.DataFrame(
         {
+            "run_id": [spec.run_id for spec in _specs(item)],
             "point": [p.label for p in item.levels],
             "pre_impact": "none",
             "policy": "stiff",
@@ -54,12 +60,16 @@ def _runs(item: Ladder, values: list[float]) -> pd.DataFrame:
 def test_first_order_error_halves_with_the_step() -> None:
     # value = exact + c * dt: each halving halves the change, 10 -> 5 -> 2.5 % of 100.
     item = ladder(_point(physics_dt=0.001), 3)
-    table = convergence_table(item and [item], _runs(item, [120.0, 110.0, 105.0]), ("imu_peak_z_landing",))
+    table = convergence_table(
+        [item], _runs(item, [120.0, 110.0, 105.0]), _specs(item), ("imu_peak_z_landing",)
+    )
     row = table.iloc[0]
     assert (row["1 ms"], row["0.5 ms"], row["0.25 ms"]) == (120.0, 110.0, 105.0)
     assert row["last change"] == pytest.approx(5 / 110)
     assert bool(row["converged"])
-    table = convergence_table([item], _runs(item, [100.0, 130.0, 160.0]), ("imu_peak_z_landing",))
+    table = convergence_table(
+        [item], _runs(item, [100.0, 130.0, 160.0]), _specs(item), ("imu_peak_z_landing",)
+    )
     assert not bool(table.iloc[0]["converged"])
 
 
@@ -83,6 +93,20 @@ def test_converge_command_runs_each_step_and_judges_the_freefall(tmp_path: Path)
     stored = pd.read_parquet(tmp_path / "r" / "metrics")
     assert sorted(stored["point"]) == ["drop[physics_dt=0.0005]#s0", "drop[physics_dt=0.001]#s0"]
     assert result.exit_code in (0, 1) and ("converged:" in result.output) == (result.exit_code == 0)
+
+
+def test_converge_reuses_a_run_of_the_default_step(tmp_path: Path, sweep) -> None:
+    # The rung at the file's own step is the same run as the plain point: found by run id.
+    scenario = tmp_path / "drop.yaml"
+    scenario.write_text("name: drop\nduration: 0.3\ninitial: {height: 0.3}\n")
+    assert sweep(scenario, tmp_path / "r", policies="stiff").exit_code == 0
+    result = CliRunner().invoke(
+        app,
+        ["converge", str(scenario), "--levels", "2", "--policies", "stiff", "--results", str(tmp_path / "r")],
+    )
+    row = result.output.splitlines()[1]
+    assert "nan" not in row.split("imu_peak_z_landing")[1], result.output
+    assert len(pd.read_parquet(tmp_path / "r" / "metrics")) == 2  # the plain run and the half step
 
 
 def test_converge_command_names_a_bad_point(tmp_path: Path) -> None:

@@ -88,6 +88,7 @@ def test_diverging_run_is_flagged() -> None:
         duration=0.3,
         physics_dt=0.01,
         control_dt=0.01,
+        contact={"time_constant": 0.02, "stop_time_constant": 0.02},  # the softest a 10 ms step allows
         push={"force": 10_000, "duration": 0.1, "start": 0.0, "body": "gripper_left_fingertip_1_link"},
     )
     rec = simulate_named(scenario, "stiff")

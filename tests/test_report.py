@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.report.claims import claims_table, verdict_matrix
-from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
+from fallbench.report.sensitivity import SWEEPS, sensitivity_figure, sensitivity_runs, sensitivity_table
 
 SUITE = """name: drop
 duration: 0.8
@@ -202,7 +202,7 @@ def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
     )
     swept = sensitivity_runs(rows)
     assert set(swept.line) == {"stiff", "adaptive_qp, posture_kp=100", "adaptive_qp, posture_kp=25"}
-    table = sensitivity_table(swept).set_index(["gain_scale", "line"])
+    table = sensitivity_table(swept).set_index(["gain_scale", "line"])  # the sweep's name heads the column
     assert table.loc[(2.0, "adaptive_qp, posture_kp=25"), "imu_peak_z_landing"] == 50.0
     assert (
         table.loc[(2.0, "stiff"), "imu_peak_z_landing"] == 20.0 and table.loc[(2.0, "stiff"), "fell"] == 1.0
@@ -210,6 +210,15 @@ def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
     paths = sensitivity_figure(swept, tmp_path)
     assert [p.name for p in paths] == ["sensitivity_gain_scale.png", "sensitivity_gain_scale.svg"]
     assert paths[0].stat().st_size > 10_000
+    softness = SWEEPS[1]
+    contact = rows.drop(columns=["param:policy_params.stiff.gain_scale"]).assign(
+        **{softness.column: [0.0125, 0.05] * (len(rows) // 2)}
+    )
+    table = sensitivity_table(sensitivity_runs(contact, softness), softness)
+    assert list(table.columns[:2]) == ["contact_time_constant", "line"]
+    assert sorted(table.contact_time_constant.unique()) == [0.0125, 0.05]
+    paths = sensitivity_figure(sensitivity_runs(contact, softness), tmp_path, softness)
+    assert paths[0].name == "sensitivity_contact_time_constant.png"
 
 
 def test_prescription_and_detection_tables_on_hand_made_rows() -> None:

@@ -111,19 +111,21 @@ def test_point_selector_matches_the_robot(tmp_path: Path) -> None:
             "robot=g1",
             "--point",
             "initial.height=0.5",
+            "--point",
+            "physics_dt=0.0005",
             "--out",
             str(tmp_path / "scene.xml"),
         ],
     )
     assert result.exit_code == 0, result.output
     assert (
-        "drop[robot=g1,initial.height=0.5]#s0" in result.output
+        "drop[robot=g1,initial.height=0.5,physics_dt=0.0005]#s0" in result.output
         and "pelvis" in (tmp_path / "scene.xml").read_text()
     )
     ambiguous = CliRunner().invoke(
         app, ["scenarios", "export", str(ROOT / "scenarios/drop.yaml"), "--point", "initial.height=0.5"]
     )
-    assert ambiguous.exit_code == 2 and "selects 2 points" in ambiguous.output
+    assert ambiguous.exit_code == 2 and "selects 4 points" in ambiguous.output  # 2 robots x 2 steps
 
 
 @pytest.mark.parametrize("name", sorted(ROBOTS))

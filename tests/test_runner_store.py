@@ -28,6 +28,7 @@ name: boom                # the largest push on the lightest body at the coarses
 duration: 0.3
 physics_dt: 0.01
 control_dt: 0.01
+contact: {time_constant: 0.02, stop_time_constant: 0.02}
 push: {force: 10000, duration: 0.1, start: 0.0, body: gripper_left_fingertip_1_link}
 """
 DETERMINISTIC = [

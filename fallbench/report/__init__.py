@@ -17,9 +17,10 @@ from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torq
 from fallbench.report.filmstrips import render_filmstrips
 from fallbench.report.grouping import with_robot
 from fallbench.report.preimpact import preimpact_report
-from fallbench.report.sensitivity import sensitivity_figure, sensitivity_runs, sensitivity_table
+from fallbench.report.sensitivity import SWEEPS, sensitivity_figure, sensitivity_runs, sensitivity_table
 from fallbench.report.stats import natural_sorted
 from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
+from fallbench.report.validity import robust_claims, split_steps, step_changes
 from fallbench.results import store
 
 
@@ -135,12 +136,13 @@ class _Sections:
     pre_paths: list[Path]  # pre-impact strategies: reshape, then direction
     pre_tables: dict[str, pd.DataFrame]
     sensitivity_paths: list[Path]
-    sensitivity: pd.DataFrame
+    sensitivity: dict[str, pd.DataFrame]  # "the baseline stiffness" -> medians per setting
     strips: dict[str, list[Path]]  # caption -> rendered filmstrips
     strip_note: str
     medians: pd.DataFrame
     claims: pd.DataFrame
     verdicts: pd.DataFrame
+    step_changes: pd.DataFrame  # headline metrics' change when the physics step is halved
     failed: pd.DataFrame
 
     @property
@@ -152,19 +154,25 @@ class _Sections:
         return [p for paths in self.figures.values() for p in paths]
 
 
-def _sections(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> _Sections:
-    """Draw every figure into `out` and compute every table of the report."""
+def _sections(
+    runs: pd.DataFrame, halved: pd.DataFrame, results: Path, out: Path, progress: bool
+) -> _Sections:
+    """Draw every figure into `out` and compute every table of the report; `halved` are the runs at
+    another physics step, for the numerical-validity section only."""
     figures = paper_figures(runs, results, out, progress)
     ok = runs[runs.status == "ok"]
     sweep_paths = distribution_figure(ok, out) + parameter_figures(ok, out)
     pre_paths, pre_tables = preimpact_report(runs, results, out)
-    swept = sensitivity_runs(runs)
-    sensitivity_paths = sensitivity_figure(swept, out)
-    sensitivity = sensitivity_table(swept) if len(swept) else pd.DataFrame()
+    sensitivity_paths, sensitivity = [], {}
+    for sweep in SWEEPS:
+        swept = sensitivity_runs(runs, sweep)
+        sensitivity_paths += sensitivity_figure(swept, out, sweep)
+        if len(swept):
+            sensitivity[sweep.title] = sensitivity_table(swept, sweep)
     direction_paths, direction_tables = direction_report(runs, results, out)
     strips, strip_note = render_filmstrips(runs, results, out)
     medians = median_table(runs)
-    claims = claims_table(runs)
+    claims = robust_claims(claims_table(runs), halved)
     return _Sections(
         figures=figures,
         sweep_paths=sweep_paths,
@@ -177,6 +185,7 @@ def _sections(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> _
         medians=medians,
         claims=claims,
         verdicts=verdict_matrix(claims),
+        step_changes=step_changes(runs, halved) if len(halved) else pd.DataFrame(),
         failed=runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]],
     )
 
@@ -213,6 +222,14 @@ def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Se
     """The overview after the answer: falls, claims, changes, pre-impact strategies, sensitivity."""
     body = ["<h2>Falls, rendered</h2>"] + _strip_images(sections.strips, out, sections.strip_note)
     body += ["<h2>Claims of the papers</h2>", pages.table(sections.verdicts), pages.table(sections.claims)]
+    if len(sections.step_changes):
+        body += [
+            "<h2>Numerical validity</h2>",
+            "<p>The same falls at half the physics step: each headline measure's change (the rankings use "
+            "the default step only). A claim is robust only if its verdict is the same at both steps "
+            "(the claims table's last columns).</p>",
+            pages.table(sections.step_changes),
+        ]
     for robot, robot_runs in per_robot.items():
         body += [
             f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
@@ -226,9 +243,12 @@ def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Se
         for p in sections.pre_paths
         if p.suffix == ".png" and not p.stem.startswith("reshaped_fall_")
     ]
-    if len(sections.sensitivity):
-        body += ["<h2>Sensitivity to the baseline stiffness</h2>", pages.table(sections.sensitivity.round(3))]
-        body += [pages.image(p, out) for p in sections.sensitivity_paths if p.suffix == ".png"]
+    for title, table in sections.sensitivity.items():
+        stem = f"sensitivity_{table.columns[0]}"
+        body += [f"<h2>Sensitivity to {title}</h2>", pages.table(table.round(3))]
+        body += [
+            pages.image(p, out) for p in sections.sensitivity_paths if p.suffix == ".png" and p.stem == stem
+        ]
     return body
 
 
@@ -281,16 +301,22 @@ def _summary_tables(sections: _Sections) -> list[str]:
         "",
         claims.to_markdown(index=False) if len(claims) else "(no drop runs)",
         "",
-        "## Pre-impact strategies (none vs reshape, none vs direction)",
-        "",
     ]
+    if len(sections.step_changes):
+        summary += [
+            "## Numerical validity (the same falls at half the physics step)",
+            "",
+            sections.step_changes.to_markdown(index=False),
+            "",
+        ]
+    summary += ["## Pre-impact strategies (none vs reshape, none vs direction)", ""]
     for title, frame in sections.pre_tables.items():
         summary += [f"### {title}", "", frame.to_markdown(index=False) if len(frame) else "(no runs)", ""]
-    if len(sections.sensitivity):
+    for title, table in sections.sensitivity.items():
         summary += [
-            "## Sensitivity to the baseline stiffness (medians per gain scale)",
+            f"## Sensitivity to {title} (medians per {table.columns[0].replace('_', ' ')})",
             "",
-            sections.sensitivity.round(3).to_markdown(index=False),
+            table.round(3).to_markdown(index=False),
             "",
         ]
     summary += [
@@ -322,9 +348,9 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     runs = store.load_metrics(results)
     if runs.empty:
         raise FileNotFoundError(f"{results}: the results store has no runs")
-    runs = with_robot(runs)
+    runs, halved = split_steps(with_robot(runs))
     out.mkdir(parents=True, exist_ok=True)
-    sections = _sections(runs, results, out, progress)
+    sections = _sections(runs, halved, results, out, progress)
     per_robot = ranking.robots(runs)
     family_pages = _family_pages(per_robot, out, sections)
 

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import pandas as pd
 
 from fallbench.report.grouping import with_robot
-from fallbench.report.sensitivity import GAIN_SCALE, sensitivity_runs, value_label
+from fallbench.report.sensitivity import GAIN_SCALE, SWEEPS, sensitivity_runs, value_label
 from fallbench.report.stats import bootstrap
 from fallbench.report.style import ordered
 
@@ -190,24 +190,23 @@ def _claims_for(runs: pd.DataFrame, scope: str) -> list[dict[str, str]]:
 
 
 def _sensitivity_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
-    """One scope per baseline gain scale and setting of adaptive_qp's swept parameters."""
-    swept = sensitivity_runs(runs)
-    if swept.empty:
-        return []
-    settings = sorted(c for c in swept.columns if c.startswith("param:policy_params.adaptive_qp."))
+    """One scope per setting of each sensitivity sweep and of adaptive_qp's swept parameters."""
     rows: list[dict[str, str]] = []
-    for scale, group in swept.groupby("gain_scale"):
-        subsets = group.groupby(settings, dropna=False) if settings else [((), group)]
-        for values, subset in subsets:
-            values = values if isinstance(values, tuple) else (values,)
-            setting = ", ".join(
-                f"{c.removeprefix('param:policy_params.')}={value_label(v)}" for c, v in zip(settings, values)
-            )
-            rows += _claims_for(
-                subset,
-                f"{'+'.join(sorted(subset.scenario.unique()))}: gain scale {scale:g}"
-                + (f", {setting}" if setting else ""),
-            )
+    for sweep in SWEEPS:
+        swept = sensitivity_runs(runs, sweep)
+        if swept.empty:
+            continue
+        settings = sorted(c for c in swept.columns if c.startswith("param:policy_params.adaptive_qp."))
+        for value, group in swept.groupby("setting"):
+            subsets = group.groupby(settings, dropna=False) if settings else [((), group)]
+            for values, subset in subsets:
+                values = values if isinstance(values, tuple) else (values,)
+                setting = ", ".join(
+                    f"{c.removeprefix('param:policy_params.')}={value_label(v)}"
+                    for c, v in zip(settings, values)
+                )
+                scope = f"{'+'.join(sorted(subset.scenario.unique()))}: {sweep.scope} {value:g}"
+                rows += _claims_for(subset, scope + (f", {setting}" if setting else ""))
     return rows
 
 

@@ -40,7 +40,7 @@ from fallbench.analysis.metrics import compute_metrics
 from fallbench.dynamics.dense_qp import QP_SOLVERS
 from fallbench.registry import load, simulate_named
 from fallbench.results.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
-from fallbench.scenario import Scenario, ScenarioPoint
+from fallbench.scenario import DEFAULT_PHYSICS_DT, Scenario, ScenarioPoint
 from fallbench.sim.servo import ServoCommand, write_servo
 from fallbench.sim.world import build_world, initial_state
 
@@ -264,12 +264,14 @@ def _sweep_file(runs: int, folder: Path) -> Path:
     """A scenario file of runs / 4 points, drops and pushes in turn from the shipped files."""
     from ruamel.yaml import YAML
 
-    from fallbench.scenario import Scenario
-
     shipped = Path(__file__).resolve().parents[2] / "scenarios"
     default = Scenario.model_fields["robot"].default  # the issue's sweep: one robot
     drops, pushes = (
-        [p for p in load([shipped / name]) if p.scenario.robot == default]
+        [
+            p
+            for p in load([shipped / name])
+            if p.scenario.robot == default and p.scenario.physics_dt == DEFAULT_PHYSICS_DT
+        ]
         for name in ("drop.yaml", "push.yaml")
     )
     mixed = [p for pair in zip(drops, pushes) for p in pair] + drops[len(pushes) :] + pushes[len(drops) :]

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from fallbench.analysis.metrics import HEADLINE_METRICS
+from fallbench.results.runner import RunSpec
 from fallbench.scenario import Scenario, ScenarioError, ScenarioPoint
 
 TOLERANCE = 0.05  # relative change of the last halving
@@ -66,20 +67,24 @@ def relative_change(old: float, new: float, metric: str) -> float:
     return abs(new - old) / max(abs(old), FLOORS.get(metric, 0.0), 1e-12)
 
 
-def convergence_table(ladders: list[Ladder], runs: pd.DataFrame, metrics: tuple[str, ...] = HEADLINE_METRICS):
+def convergence_table(
+    ladders: list[Ladder],
+    runs: pd.DataFrame,
+    specs: list[RunSpec],
+    metrics: tuple[str, ...] = HEADLINE_METRICS,
+) -> pd.DataFrame:
     """One row per (point, pre-impact, policy, metric): the value at each step (columns named by the
-    step in ms), the last halving's relative change and whether it is within TOLERANCE."""
+    step in ms), the last halving's relative change and whether it is within TOLERANCE. Runs are
+    found by run id: a rung at the default step is the same run as the plain point's."""
+    by_id = runs[runs["status"] == "ok"].set_index("run_id")
     rows = []
-    ok = runs[runs["status"] == "ok"]
     for item in ladders:
-        labels = [p.label for p in item.levels]
-        at_levels = ok[ok["point"].isin(labels)]
-        for (pre_impact, policy), cases in at_levels.groupby(["pre_impact", "policy"], sort=True):
-            by_label = cases.set_index("point")
+        for pre_impact, policy in sorted({(s.pre_impact, s.policy) for s in specs if s.point in item.levels}):
+            ids = [RunSpec(rung, policy, pre_impact).run_id for rung in item.levels]
             for metric in metrics:
-                if metric not in by_label.columns:
+                if metric not in by_id.columns:
                     continue
-                values = [float(by_label[metric].get(label, math.nan)) for label in labels]
+                values = [float(by_id[metric].get(run_id, math.nan)) for run_id in ids]
                 change = relative_change(values[-2], values[-1], metric)
                 row = {"point": item.base.label, "pre_impact": pre_impact, "policy": policy, "metric": metric}
                 row.update({f"{dt * 1e3:g} ms": value for dt, value in zip(item.steps, values)})

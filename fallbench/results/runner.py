@@ -114,6 +114,7 @@ def _identity(spec: RunSpec) -> dict[str, Any]:
         "policy": spec.policy,
         "pre_impact": spec.pre_impact,
         "seed": scenario.seed,
+        "physics_dt": scenario.physics_dt,
     }
     row.update({f"param:{k}": v for k, v in spec.point.swept.items()})
     row.update({f"version:{k}": v for k, v in versions(scenario.robot).items()})

@@ -1,14 +1,14 @@
 """The MuJoCo scene of one scenario: robot, floor, obstacles, IMU, contact sensors, servo actuators.
 
-Contact and joint-limit softness decide the impact peaks, so they are fixed here, once, for every
-robot and scenario:
+Contact and joint-limit softness decide the impact peaks; they are the scenario's `contact:`
+parameters (stated defaults), applied to every robot, floor and obstacle geom alike:
 
-- integrator `implicitfast`, physics step from the scenario (0.5 ms by default: 10 steps per
+- integrator `implicitfast`, physics step from the scenario (0.5 ms by default: 25 steps per
   contact time constant, where halving the step moves the landing IMU peak by under 4 %);
-- contacts: solref (0.005 s, 1.0), i.e. a critically damped contact with a 5 ms time constant
-  (MuJoCo asks for >= 2 steps per time constant), solimp
+- contacts: solref (0.0125 s, 1.0), a critically damped contact with a 12.5 ms time constant
+  (MuJoCo asks for >= 2 steps per time constant; the schema enforces it), solimp
   (0.9, 0.95, 0.001); condim 3 with the scenario's friction;
-- joint limits (mechanical stops): solreflimit (0.005 s, 1.0), the same 5 ms stop, so that a joint
+- joint limits (mechanical stops): solreflimit (0.005 s, 1.0), a 5 ms stop, so that a joint
   driven into its stop is stopped within a few milliseconds as by a hard end stop;
 - self-collisions on, except the pairs the robot's SRDF disables and parent-child pairs;
 - MuJoCo's automatic reset on divergence is disabled, so a diverged run is seen and stored.
@@ -29,11 +29,9 @@ import numpy as np
 
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.robots.description import RobotDescription
-from fallbench.scenario import Box, Cylinder, Scenario
+from fallbench.scenario import Box, Contact, Cylinder, Scenario
 
-CONTACT_SOLREF = (0.005, 1.0)
-CONTACT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
-LIMIT_SOLREF = (0.005, 1.0)
+IMPEDANCE_SHAPE = (0.5, 2.0)  # solimp midpoint and power: MuJoCo's defaults
 ROBOT_COLLISION_BITS = (1, 1)  # contype, conaffinity: robot geoms touch each other and the scene
 FLOOR_NAME = "floor"
 POSTURE_NOISE_STREAM = 1  # random stream of the posture noise, apart from the seed's randomised keys
@@ -94,7 +92,15 @@ def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
     return mujoco.MjSpec.from_string(ET.tostring(tree, encoding="unicode"))
 
 
-def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, friction: float) -> None:
+def _soften(geom: mujoco.MjsGeom, scenario: Scenario) -> None:
+    """Friction, and the contact softness of `scenario.contact` (solref, solimp)."""
+    contact = scenario.contact
+    geom.friction = [scenario.friction, 0.005, 0.0001]
+    geom.solref = (contact.time_constant, contact.damping_ratio)
+    geom.solimp = (*contact.impedance, *IMPEDANCE_SHAPE)
+
+
+def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, scenario: Scenario) -> None:
     geom = spec.worldbody.add_geom()
     geom.name = f"obstacle_{index}"
     geom.pos = obstacle.pos
@@ -106,7 +112,7 @@ def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, fri
     else:
         geom.type = mujoco.mjtGeom.mjGEOM_CYLINDER
         geom.size = [obstacle.radius, obstacle.height / 2, 0.0]
-    geom.friction = [friction, 0.005, 0.0001]
+    _soften(geom, scenario)
     geom.rgba = [0.6, 0.45, 0.3, 1.0]
 
 
@@ -135,14 +141,13 @@ def _set_options(spec: mujoco.MjSpec, scenario: Scenario) -> None:
     spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
 
 
-def _set_robot_contacts(spec: mujoco.MjSpec, robot: RobotDescription, friction: float) -> None:
-    """Every robot geom collides with the scene and the robot, with the fixed contact softness,
+def _set_robot_contacts(spec: mujoco.MjSpec, robot: RobotDescription, scenario: Scenario) -> None:
+    """Every robot geom collides with the scene and the robot, with the scenario's contact softness,
     except the body pairs the robot's SRDF disables."""
     for geom in spec.geoms:
         geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
         geom.condim = 3
-        geom.friction = [friction, 0.005, 0.0001]
-        geom.solref, geom.solimp = CONTACT_SOLREF, CONTACT_SOLIMP
+        _soften(geom, scenario)
     for body1, body2 in robot.disabled_collisions:
         if spec.body(body1) is not None and spec.body(body2) is not None:
             exclude = spec.add_exclude()
@@ -155,22 +160,22 @@ def _add_scene(spec: mujoco.MjSpec, scenario: Scenario) -> None:
     floor.name = FLOOR_NAME
     floor.type = mujoco.mjtGeom.mjGEOM_PLANE
     floor.size = [20.0, 20.0, 0.1]
-    floor.friction = [scenario.friction, 0.005, 0.0001]
+    _soften(floor, scenario)
     floor.rgba = [0.8, 0.8, 0.8, 1.0]
     for index, obstacle in enumerate(scenario.obstacles):
-        _add_obstacle(spec, index, obstacle, scenario.friction)
+        _add_obstacle(spec, index, obstacle, scenario)
     light = spec.worldbody.add_light()
     light.pos, light.dir = [0.0, 0.0, 4.0], [0.0, 0.0, -1.0]
 
 
-def _add_servos(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
+def _add_servos(spec: mujoco.MjSpec, robot: RobotDescription, contact: Contact) -> None:
     """A position servo with the robot's default gains on each hinge, its torque clamped to the
-    joint's limit (Nm); each hinge's armature and its 5 ms limit stop (LIMIT_SOLREF)."""
+    joint's limit (Nm); each hinge's armature and its limit stop (`contact.stop_*`, default 5 ms)."""
     for joint in spec.joints:
         if joint.type != mujoco.mjtJoint.mjJNT_HINGE:
             continue
         joint.armature = robot.armature.get(joint.name, 0.0)
-        joint.solref_limit = LIMIT_SOLREF
+        joint.solref_limit = (contact.stop_time_constant, contact.stop_damping_ratio)
         kp, kd = robot.default_gains(joint.name)
         actuator = spec.add_actuator()
         actuator.name = joint.name
@@ -243,9 +248,9 @@ def build_spec(scenario: Scenario) -> mujoco.MjSpec:
     spec = _robot_spec(robot)
     _set_options(spec, scenario)
     spec.body(robot.root_body).add_freejoint().name = "root"
-    _set_robot_contacts(spec, robot, scenario.friction)
+    _set_robot_contacts(spec, robot, scenario)
     _add_scene(spec, scenario)
-    _add_servos(spec, robot)
+    _add_servos(spec, robot, scenario.contact)
     _add_state_sensors(spec, robot)
     _add_contact_sensors(spec, robot, len(scenario.obstacles))
     return spec
