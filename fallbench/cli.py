@@ -140,9 +140,7 @@ def run_sweep_command(
     ),
     policies: str = typer.Option("stiff,oneshot,zero,adaptive_qp", help="Comma-separated gain policies."),
     pre_impact: str = typer.Option("none,reshape", help=PRE_IMPACT_HELP),
-    jobs: int = typer.Option(
-        2, "--jobs", "-j", min=1, help="Parallel worker processes (loky, or a local Dask cluster)."
-    ),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Parallel worker processes (see --backend)."),
     backend: str = typer.Option(
         "auto",
         help="auto: this process for one job or one run, else fork; fork: workers forked from this process (they start with its imports and compiled worlds); loky: fresh processes on this machine; dask: a Dask cluster (needs fallbench's optional `dask` extra).",
@@ -157,7 +155,7 @@ def run_sweep_command(
     progress: bool = typer.Option(True, help="Show a progress bar."),
     robot: str | None = typer.Option(
         None,
-        help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see the README).",
+        help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see docs/scenarios.md).",
     ),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
@@ -165,14 +163,9 @@ def run_sweep_command(
     Interrupted sweeps resume: finished runs are skipped. Failed runs are stored with their status.
     Workers only simulate; this process writes the store, so Dask workers need no shared disk.
     """
-    from fallbench.results.runner import BACKENDS, expand, run_sweep
+    from fallbench.results.runner import expand, run_sweep
 
-    if backend not in BACKENDS:
-        fail(f"--backend: unknown backend {backend!r}; known: {', '.join(BACKENDS)}")
-    if scheduler and backend != "dask":
-        fail("--scheduler needs --backend dask")
-    if backend == "dask" and importlib.util.find_spec("distributed") is None:
-        fail("--backend dask needs Dask's distributed scheduler: pip install 'fallbench[dask]'")
+    _check_backend(backend, scheduler)
     points = _load(files or SHIPPED, _robot(robot))
     specs = expand(points, _policies(policies), _strategies(pre_impact))
     table = run_sweep(
@@ -183,6 +176,31 @@ def run_sweep_command(
         backend=backend,
         scheduler=scheduler,
     )
+    typer.echo(_sweep_summary(table, reports).round(3).to_string())
+    failed = table[table.status != "ok"]
+    typer.echo(
+        f"\n{len(table)} runs in {results}/metrics/, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md"
+    )
+    for _, row in failed.iterrows():
+        typer.echo(f"  {row.status}: {row.pre_impact}/{row.policy} {row.point}: {row.error}", err=True)
+    if strict and len(failed):
+        raise typer.Exit(1)
+
+
+def _check_backend(backend: str, scheduler: str | None) -> None:
+    from fallbench.results.runner import BACKENDS
+
+    if backend not in BACKENDS:
+        fail(f"--backend: unknown backend {backend!r}; known: {', '.join(BACKENDS)}")
+    if scheduler and backend != "dask":
+        fail("--scheduler needs --backend dask")
+    if backend == "dask" and importlib.util.find_spec("distributed") is None:
+        fail("--backend dask needs Dask's distributed scheduler: pip install 'fallbench[dask]'")
+
+
+def _sweep_summary(table, reports: Path):
+    """Medians per (robot, scenario, strategy, policy) with run and failure counts, also written to
+    `reports/sweep_summary.md`."""
     keys = ["robot", "scenario", "pre_impact", "policy"]
     summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())
@@ -193,15 +211,7 @@ def run_sweep_command(
     (reports / "sweep_summary.md").write_text(
         "# Sweep summary (medians over runs)\n\n" + summary.round(3).to_markdown() + "\n"
     )
-    typer.echo(summary.round(3).to_string())
-    failed = table[table.status != "ok"]
-    typer.echo(
-        f"\n{len(table)} runs in {results}/metrics/, {len(failed)} failed or diverged; summary in {reports}/sweep_summary.md"
-    )
-    for _, row in failed.iterrows():
-        typer.echo(f"  {row.status}: {row.pre_impact}/{row.policy} {row.point}: {row.error}", err=True)
-    if strict and len(failed):
-        raise typer.Exit(1)
+    return summary
 
 
 @run_app.command("one")
@@ -480,7 +490,9 @@ def results_command(
     names = [c.strip() for c in columns.split(",") if c.strip()]
     unknown = [c for c in names if c not in table.columns]
     if unknown and len(table.columns):
-        fail(f"--columns: unknown column(s) {', '.join(unknown)}; see the README for the schema")
+        fail(
+            f"--columns: unknown column(s) {', '.join(unknown)}; see docs/results-and-metrics.md for the schema"
+        )
     table = table[[c for c in names if c in table.columns]]
     if fmt == "csv":
         typer.echo(table.to_csv(index=False), nl=False)
@@ -547,17 +559,21 @@ def check_command(
         typer.echo(f"software changed since {baseline} was recorded: {'; '.join(changed)}", err=True)
     regressions = compare(expected, now, limits)
     if regressions:
-        typer.echo(f"{'case':<48} {'metric':<32} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
-        for r in regressions:
-            typer.echo(
-                f"{r.case:<48} {r.metric:<32} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}"
-            )
+        _echo_regressions(regressions)
         typer.echo(f"{len(regressions)} regression(s) against {baseline}", err=True)
         raise typer.Exit(1)
     typer.echo(
         f"check ok: {len(now)} cases x {len(limits.per_run)} per-run metrics, "
         f"{len(limits.distribution)} metrics over seeds, within tolerance of {baseline}"
     )
+
+
+def _echo_regressions(regressions) -> None:
+    typer.echo(f"{'case':<48} {'metric':<32} {'baseline':>12} {'now':>12} {'change':>10}  tolerance")
+    for r in regressions:
+        typer.echo(
+            f"{r.case:<48} {r.metric:<32} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}"
+        )
 
 
 def main() -> None:

@@ -36,7 +36,7 @@ from fallbench.robots import DEFAULT_ROBOT, ROBOTS, get_robot
 from fallbench.robots.description import DEFAULT_POSTURE
 
 # Every number of a scenario is finite (Strict's allow_inf_nan=False) and within a documented
-# range (README, "Ranges"): give each new numeric field bounds (test_scenario_ranges checks that
+# range (docs/scenarios.md, "Ranges"): give each new numeric field bounds (test_scenario_ranges checks that
 # every numeric field of the schema has a lower and an upper one).
 MAX_STEPS_PER_RUN = 200_000  # physics steps (duration / physics_dt) of one run: ~10-15 s of wall time
 MAX_POINTS_PER_FILE = 10_000  # sweep points x seeds of one scenario file

@@ -79,7 +79,7 @@ print("numba" in sys.modules)
 
 @pytest.mark.parametrize("policy, loaded", [("stiff", "False"), ("zero", "False"), ("adaptive_qp", "True")])
 def test_only_qp_runs_load_numba(policy: str, loaded: str) -> None:
-    """Numba costs a process ~0.6 s to load (README): an episode through impact (impact metrics
+    """Numba costs a process ~0.6 s to load (docs/methods/adaptive_qp.md): an episode through impact (impact metrics
     included) loads it only when a QP runs."""
     result = subprocess.run(
         [sys.executable, "-c", LOADS_NUMBA.format(policy=policy)], capture_output=True, text=True, check=True

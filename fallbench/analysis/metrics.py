@@ -1,4 +1,4 @@
-"""Every metric of a run, defined once, from the recorded time series (units in the README).
+"""Every metric of a run, defined once, from the recorded time series (units in docs/results-and-metrics.md).
 
 The IMU is the waist accelerometer: specific force in the waist frame, z up, so it reads
 +9.81 m/s^2 standing still and 0 in free fall.

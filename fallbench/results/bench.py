@@ -465,7 +465,7 @@ def run_bench(
     e2e_runs: tuple[int, ...] = (20, 100),
     e2e_repeats: int = 1,
 ) -> dict[str, Any]:
-    """Every figure as one flat dict (keys documented in the README); `store_runs` 0 or an empty
+    """Every figure as one flat dict (keys documented in docs/bench.md); `store_runs` 0 or an empty
     `e2e_runs` leaves those parts out."""
     figures: dict[str, Any] = {"scenario": point.label, "pre_impact": pre_impact, "cpu_count": os.cpu_count()}
     progress("warming up")

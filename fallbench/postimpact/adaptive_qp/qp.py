@@ -9,7 +9,7 @@ eliminated through the dynamics (eq. 10 with eq. 15's selected rows):
     q_ddot = H^-1 (J' G lambda + S_S' (e_S K_S + e_dot_S B_S) + S_NS' tau_NS - C),
 
 which satisfies the floating-base rows (no torque there) exactly, so no dynamics row is left.
-The non-selected motors keep their last gains (ours, see the README): their torque is that PD's,
+The non-selected motors keep their last gains (ours, see docs/methods/adaptive_qp.md): their torque is that PD's,
 tau_NS = clip(K_NS e + B_NS e_dot, -tau_max, tau_max), known at the solve.
 
 Constraints:
@@ -54,7 +54,7 @@ GRAVITY = 9.81  # m/s^2
 
 @dataclass(frozen=True)
 class QPConfig:
-    """Weights, task gains and bounds of the adaptive-gain QP (documented in the README)."""
+    """Weights, task gains and bounds of the adaptive-gain QP (documented in docs/methods/adaptive_qp.md)."""
 
     w_posture: float = 1.0
     w_com: float = 10.0

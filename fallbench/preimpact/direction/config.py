@@ -1,5 +1,5 @@
 """Parameters of the `direction` strategy (`policy_params.direction`); 004 hand-tuned and did not
-report most of them, so they are exposed here (README)."""
+report most of them, so they are exposed here (docs/methods/direction.md)."""
 
 from __future__ import annotations
 

@@ -6,7 +6,7 @@ d theta) is analytic: moving joint k turns one part of the robot about the joint
 subtree beyond the joint, or, for a joint between the root and the stance foot (which stays on
 the ground), everything but that subtree, the other way. The desired inertia I_d is the smallest
 symmetric change of I^P that makes the present angular momentum about P spin the robot toward the
-desired direction (004 takes I_d from [1], which this reading does not have; see the README).
+desired direction (004 takes I_d from [1], which this reading does not have; see docs/methods/direction.md).
 """
 
 from __future__ import annotations

@@ -51,7 +51,7 @@ PIVOTS = ("contacts", "knees", "knees_and_buttocks")
 
 @dataclass(frozen=True)
 class ReshapeConfig:
-    """Task weights and gains of the reshaping QP (documented in the README)."""
+    """Task weights and gains of the reshaping QP (documented in docs/methods/reshape.md)."""
 
     w_orientation: float = 10.0
     w_landing: float = 10.0  # each wrist toward its BIP, along the surface
