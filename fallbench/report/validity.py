@@ -13,11 +13,11 @@ import pandas as pd
 
 from fallbench.analysis.metrics import HEADLINE_METRICS
 from fallbench.report.claims import claims_table
+from fallbench.results.converge import relative_change
 from fallbench.scenario import DEFAULT_PHYSICS_DT
 
 STEP = "physics_dt"  # s, every run's step (a column of the store)
 DEFAULT_STEP = DEFAULT_PHYSICS_DT
-CHANGE_FLOORS = {"knee_limit_margin": 0.02, "joint_limit_hits": 1.0, "fell": 1.0}  # as `fallbench converge`
 SAME_POINT = ["robot", "base_point", "policy", "pre_impact"]
 
 
@@ -48,13 +48,13 @@ def _paired(default: pd.DataFrame, halved: pd.DataFrame) -> pd.DataFrame:
 
 
 def step_changes(default: pd.DataFrame, halved: pd.DataFrame) -> pd.DataFrame:
-    """Per headline metric: the median and worst relative change of the halving over the paired runs."""
+    """Per headline metric: the median and worst relative change of the halving over the paired runs
+    (`fallbench converge`'s measure: values near zero are judged against a floor, e.g. 10 N)."""
     pairs = _paired(default, halved)
     rows = []
     for metric in (m for m in HEADLINE_METRICS if f"{m}_default" in pairs):
         old, new = pairs[f"{metric}_default"].astype(float), pairs[f"{metric}_halved"].astype(float)
-        scale = np.maximum(old.abs(), CHANGE_FLOORS.get(metric, 1e-12))
-        change = ((new - old).abs() / scale).where(~(old.isna() & new.isna()), 0.0)
+        change = pd.Series([relative_change(a, b, metric) for a, b in zip(old, new)], dtype=float)
         rows.append(
             {
                 "metric": metric,
