@@ -44,3 +44,13 @@ def test_step_changes_pair_the_same_fall() -> None:
 def test_claims_without_half_step_runs_are_unchanged() -> None:
     claims = pd.DataFrame({"robot": ["talos"], "scope": ["1 m drop"], "claim": ["x"], "verdict": ["holds"]})
     assert robust_claims(claims, pd.DataFrame()).equals(claims)
+
+
+def test_the_report_counts_half_step_runs_apart() -> None:
+    from fallbench.report import _counted
+
+    default, halved = _runs(DEFAULT_STEP, 200.0, False), _runs(DEFAULT_STEP / 2, 210.0, True)
+    assert (
+        _counted(default, halved) == "2 runs (and 2 at another physics step, in the numerical validity only)"
+    )
+    assert _counted(default, halved.iloc[0:0]) == "2 runs"

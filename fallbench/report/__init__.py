@@ -199,12 +199,24 @@ def _family_pages(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Sect
     ]
 
 
+def _counted(runs: pd.DataFrame, halved: pd.DataFrame) -> str:
+    """ "N runs", and the runs at another physics step that only the numerical validity reads."""
+    other = (
+        f" (and {len(halved)} at another physics step, in the numerical validity only)" if len(halved) else ""
+    )
+    return f"{len(runs)} runs{other}"
+
+
 def _index_answer(
-    runs: pd.DataFrame, results: Path, per_robot: dict[str, pd.DataFrame], failed: pd.DataFrame
+    runs: pd.DataFrame,
+    halved: pd.DataFrame,
+    results: Path,
+    per_robot: dict[str, pd.DataFrame],
+    failed: pd.DataFrame,
 ) -> list[str]:
     """The overview's opening: what was run, then per robot the ranking of every family."""
     body = [
-        f"<h1>fallbench report</h1><p>{len(runs)} runs from <code>{html.escape(str(results))}</code>; "
+        f"<h1>fallbench report</h1><p>{_counted(runs, halved)} from <code>{html.escape(str(results))}</code>; "
         f"{len(failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
         "runs of a family: its sweep points and seeds.</p>",
         "<h2>What hurts the robot least</h2>",
@@ -266,13 +278,17 @@ def _index_links(family_pages: list[Path], sections: _Sections) -> list[str]:
 
 
 def _summary_answer(
-    runs: pd.DataFrame, results: Path, per_robot: dict[str, pd.DataFrame], failed: pd.DataFrame
+    runs: pd.DataFrame,
+    halved: pd.DataFrame,
+    results: Path,
+    per_robot: dict[str, pd.DataFrame],
+    failed: pd.DataFrame,
 ) -> list[str]:
     """summary.md's opening: what was run, then the verdict and ranking of every robot and family."""
     summary = [
         "# fallbench report",
         "",
-        f"{len(runs)} runs from `{results}`; {len(failed)} failed or diverged.",
+        f"{_counted(runs, halved)} from `{results}`; {len(failed)} failed or diverged.",
         "",
         "## What hurts the robot least (median [95 % bootstrap CI] over points and seeds)",
         "",
@@ -354,11 +370,11 @@ def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
     per_robot = ranking.robots(runs)
     family_pages = _family_pages(per_robot, out, sections)
 
-    index_body = _index_answer(runs, results, per_robot, sections.failed)
+    index_body = _index_answer(runs, halved, results, per_robot, sections.failed)
     index_body += _index_evidence(per_robot, out, sections) + _index_links(family_pages, sections)
     index = pages.write(out / "index.html", "fallbench report", index_body)
 
-    summary = _summary_answer(runs, results, per_robot, sections.failed)
+    summary = _summary_answer(runs, halved, results, per_robot, sections.failed)
     summary += _summary_tables(sections) + _summary_files(family_pages, sections)
     (out / "summary.md").write_text("\n".join(summary) + "\n")
     return (
