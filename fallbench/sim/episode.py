@@ -325,6 +325,8 @@ class Episode:
         watching = self.fall.time is not None and not self.takeover.switched.all()
         watched = self.world.contact_found_columns[~self.seen & self.unplanned] if watching else None
         model, data, trace = self.world.model, self.data, self.trace
+        # s: the earliest takeover falling due (the list does not change during the substeps)
+        due_at = min(when for when, _ in self.due) - 1e-9 if self.due else math.inf
         for _ in range(self.per_control - self.step % self.per_control):
             trace.qpos[self.step] = data.qpos
             trace.qvel[self.step] = data.qvel
@@ -337,7 +339,7 @@ class Episode:
             self.step += 1
             if watched is not None and data.sensordata[watched].any():
                 break
-            if self.due and self.step * self.scenario.physics_dt >= min(when for when, _ in self.due) - 1e-9:
+            if self.step * self.scenario.physics_dt >= due_at:
                 break
         self.sensor_row = trace.sensordata[self.step - 1]
 
