@@ -88,7 +88,24 @@ def _strategies(text: str) -> list[str]:
     return _names(text, STRATEGIES, "--pre-impact", "strategy")
 
 
-PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape, direction, or a plugin's); a scenario's own `pre_impact` list wins."
+def _check_strategies(points: list[ScenarioPoint], strategies: list[str]) -> None:
+    """The strategies' own checks (an ONNX model that must fit the robot) on every point they will
+    run on, before any run: one `error:` line and exit 2 on the first problem."""
+    from fallbench.registry import check_strategies
+
+    checked: set[tuple[str, str]] = set()
+    for point in points:
+        names = point.scenario.pre_impact or strategies
+        key = (point.scenario.model_copy(update={"seed": 0}).model_dump_json(), ",".join(names))
+        if key in checked:
+            continue
+        checked.add(key)
+        problem = check_strategies(point.scenario, names)
+        if problem:
+            fail(f"{point.source}: {problem[0]}: {problem[1]}")
+
+
+PRE_IMPACT_HELP = "Comma-separated pre-impact strategies (none, reshape, direction, onnx, or a plugin's); a scenario's own `pre_impact` list wins. `onnx` (a learned whole-fall policy, `policy_params.onnx.model`) runs once per point with the policy `-`."
 
 
 def _matching(points: list[ScenarioPoint], selectors: list[str], file: Path) -> list[ScenarioPoint]:
@@ -167,7 +184,9 @@ def run_sweep_command(
 
     _check_backend(backend, scheduler)
     points = _load(files or SHIPPED, _robot(robot))
-    specs = expand(points, _policies(policies), _strategies(pre_impact))
+    strategies = _strategies(pre_impact)
+    _check_strategies(points, strategies)
+    specs = expand(points, _policies(policies), strategies)
     table = run_sweep(
         specs,
         results,
@@ -225,10 +244,13 @@ def run_one_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
 ) -> None:
     """Run one case, store it, and print its metrics."""
+    from fallbench.registry import run_policy
     from fallbench.results.runner import RunSpec, execute
 
     chosen = _select(_load([file]), point, file)
-    row = execute(RunSpec(chosen, _policies(policy)[0], _strategies(pre_impact)[0]), results)
+    strategy = _strategies(pre_impact)[0]
+    _check_strategies([chosen], [strategy])
+    row = execute(RunSpec(chosen, run_policy(strategy, _policies(policy)[0]), strategy), results)
     width = max(len(k) for k in row)
     for key, value in row.items():
         typer.echo(f"{key:<{width}}  {value:.4g}" if isinstance(value, float) else f"{key:<{width}}  {value}")

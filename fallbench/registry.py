@@ -29,6 +29,7 @@ from fallbench.postimpact.stiff import StiffPolicy, gain_scale
 from fallbench.postimpact.zero import ZeroPolicy
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.strategy import DirectionStrategy
+from fallbench.preimpact.learned.onnx import OnnxStrategy
 from fallbench.preimpact.none import NoStrategy
 from fallbench.preimpact.reshape.strategy import ReshapeStrategy
 from fallbench.scenario import Scenario, ScenarioPoint, load_scenarios
@@ -118,9 +119,29 @@ STRATEGIES: dict[str, type[Strategy]] = Registry(
         "none": NoStrategy,
         "reshape": ReshapeStrategy,
         "direction": DirectionStrategy,
+        "onnx": OnnxStrategy,
     },
     "pre-impact strategy",
 )
+
+NO_POLICY = "-"  # the policy of a whole-fall controller's runs: it never hands its motors over
+
+
+def run_policy(pre_impact: str, policy: str) -> str:
+    """The gain policy a run of `pre_impact` carries: `policy`, or `-` for a whole-fall controller."""
+    strategy = STRATEGIES.get(pre_impact)
+    return NO_POLICY if strategy is not None and not strategy.hands_over else policy
+
+
+def check_strategies(scenario: Scenario, names: list[str] | tuple[str, ...]) -> tuple[str, str] | None:
+    """(key, reason) of the first problem of these strategies' own checks (a model file) on
+    `scenario`, else None."""
+    for name in names:
+        strategy = STRATEGIES.get(name)
+        problem = strategy.check(scenario) if strategy is not None else None
+        if problem:
+            return problem
+    return None
 
 
 def _parameter_problem(default: Any, value: Any) -> str | None:
@@ -160,6 +181,10 @@ def check_controllers(scenario: Scenario) -> tuple[str, str] | None:
                 problem = f"expected one of {', '.join(allowed)} (got {value!r})"
             if problem:
                 return f"policy_params.{policy}.{key}", problem
+    strategies = [name for name in STRATEGIES if name in scenario.policy_params]
+    problem = check_strategies(scenario, [*(scenario.pre_impact or ()), *strategies])
+    if problem:
+        return problem
     if gain_scale(scenario) <= 0:
         return (
             "policy_params.stiff.gain_scale",
@@ -194,7 +219,14 @@ def run_world(scenario: Scenario) -> World:
 
 def simulate_named(scenario: Scenario, policy: str, pre_impact: str = "none") -> Recording:
     """One fall under the registered gain policy and pre-impact strategy of these names."""
+    if (policy == NO_POLICY) != (run_policy(pre_impact, policy) == NO_POLICY):
+        raise ValueError(
+            f"policy {policy!r} with strategy {pre_impact!r}: `-` goes with whole-fall strategies only"
+        )
     world = run_world(scenario)
-    gain_policy = POLICIES.create(policy, world, scenario)  # type: ignore[attr-defined]
+    # a whole-fall controller never hands over: its episode is given `stiff`, which never acts
+    gain_policy = POLICIES.create(  # type: ignore[attr-defined]
+        "stiff" if policy == NO_POLICY else policy, world, scenario
+    )
     strategy = STRATEGIES.create(pre_impact, world, scenario)  # type: ignore[attr-defined]
     return run_episode(world, scenario, gain_policy, strategy, pre_impact)

@@ -2,7 +2,8 @@
 detection and impact).
 
 The episode calls, in order: `start` once at fall detection; `step` every control step until every
-motor has switched to the gain policy; `planned_contacts` every control step, so that a contact the
+motor has switched to the gain policy (a whole-fall controller, `hands_over = False`, never hands its
+motors over: `step` is called every control step to the episode's end); `planned_contacts` every control step, so that a contact the
 strategy meant to make (a footstep) is not taken for an impact; and after the episode `stats` (controller
 figures) and `metrics` (outcome figures computed from the recording). Every call gets MuJoCo's
 state; strategies read the robot description through `world.robot`, never a joint name.
@@ -36,12 +37,30 @@ class Strategy(ABC):
     # True: each motor switches to the gain policy when its own chain touches down (002 Sec. V);
     # False: every motor switches at the first impact.
     per_chain_switching: bool = False
+    # True: the motors switch to the gain policy at impact (the papers' methods). False: a whole-fall
+    # controller, which keeps every motor from fall detection to the episode's end (learned fall
+    # policies); its runs carry no gain policy (`-`). Its control rate is its own: `step` is called
+    # every control step and returns None between its own decisions.
+    hands_over: bool = True
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         self.params = resolved_params(
             "strategy", self.name, self.defaults, scenario.policy_params.get(self.name, {})
         )
         self.world, self.scenario = world, scenario
+
+    @classmethod
+    def check(cls, scenario: Scenario) -> tuple[str, str] | None:
+        """(key, reason) of the first problem of this strategy's parameters in `scenario` that their
+        types cannot show (a model file that does not fit the robot), else None. Run when scenario
+        files load, before any run."""
+        return None
+
+    @classmethod
+    def inputs(cls, scenario: Scenario) -> dict[str, str]:
+        """Files this strategy reads in `scenario` (path -> SHA-256 of the content): part of the
+        run's identity, so that a changed file is a new run."""
+        return {}
 
     @abstractmethod
     def start(self, t: float, data: mujoco.MjData) -> None:

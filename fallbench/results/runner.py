@@ -47,13 +47,16 @@ class RunSpec:
     pre_impact: str = "none"
 
     def resolved(self) -> dict[str, Any]:
-        """Everything that determines the run's outcome, including software versions."""
-        return {
+        """Everything that determines the run's outcome, including software versions and the
+        content of the files the strategy reads (a policy model)."""
+        resolved = {
             "scenario": self.point.scenario.model_dump(mode="json"),
             "policy": self.policy,
             "pre_impact": self.pre_impact,
             "versions": versions(self.point.scenario.robot),
         }
+        inputs = strategy_inputs(self.pre_impact, self.point.scenario)
+        return resolved | {"inputs": inputs} if inputs else resolved
 
     @property
     def run_id(self) -> str:
@@ -91,13 +94,24 @@ def _versions(robot: str) -> tuple[tuple[str, str], ...]:
     )
 
 
+def strategy_inputs(pre_impact: str, scenario: Any) -> dict[str, str]:
+    """Files the strategy reads in this scenario, path -> content digest (none for most)."""
+    from fallbench.registry import STRATEGIES
+
+    strategy = STRATEGIES.get(pre_impact)
+    return strategy.inputs(scenario) if strategy is not None else {}
+
+
 def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[str]) -> list[RunSpec]:
-    """Every (point, strategy, policy); a scenario's own `pre_impact` list replaces `pre_impact`."""
+    """Every (point, strategy, policy); a scenario's own `pre_impact` list replaces `pre_impact`.
+    A whole-fall strategy runs once per point, with the policy `-`."""
+    from fallbench.registry import run_policy
+
     return [
-        RunSpec(p, policy, pre)
+        RunSpec(p, label, pre)
         for p in points
         for pre in (p.scenario.pre_impact or pre_impact)
-        for policy in policies
+        for label in dict.fromkeys(run_policy(pre, policy) for policy in policies)
     ]
 
 

@@ -75,6 +75,9 @@ class RobotDescription:
     feet: dict[str, str] = field(
         default_factory=dict
     )  # "left"/"right" -> the foot body that carries the sole
+    # PD gains of the servo under a learned whole-fall policy (`onnx`): a compliant servo of the
+    # kind learned policies are trained and deployed with, not the stiff default
+    learned_gain_groups: tuple[GainGroup, ...] = ()
 
     @property
     def vulnerable_bodies(self) -> tuple[str, ...]:
@@ -91,6 +94,13 @@ class RobotDescription:
             if re.fullmatch(group.pattern, joint):
                 return group.kp, group.kd
         raise KeyError(f"robot {self.name!r}: no default gains for joint {joint!r}")
+
+    def learned_gains(self, joint: str) -> tuple[float, float]:
+        """(Nm/rad, Nms/rad) of `joint`'s servo under a learned whole-fall policy."""
+        for group in self.learned_gain_groups:
+            if re.fullmatch(group.pattern, joint):
+                return group.kp, group.kd
+        raise KeyError(f"robot {self.name!r}: no learned-policy gains for joint {joint!r}")
 
     @property
     def knee_joints(self) -> tuple[str, str]:

@@ -42,6 +42,19 @@ G1_GAINS = (
     GainGroup(r".*_wrist_.*", 30.0, 0.9),
 )
 
+# Servo gains under a learned whole-fall policy (strategy `onnx`, the Gymnasium environment): of the
+# vendor's RL deployments (hips 100 Nm/rad, knees 150, ankles 40, kd/kp ~0.025 s), with the waist,
+# arms and wrists (which those 12-joint policies leave out) on the same scale: a compliant servo that
+# a policy moves by its targets, not the stiff one of `stiff`.
+G1_LEARNED_GAINS = (
+    GainGroup(r".*_hip_.*", 100.0, 2.5),
+    GainGroup(r".*_knee_.*", 150.0, 4.0),
+    GainGroup(r".*_ankle_.*", 40.0, 1.0),
+    GainGroup(r"waist_.*", 200.0, 5.0),
+    GainGroup(r".*_(shoulder|elbow)_.*", 40.0, 1.0),
+    GainGroup(r".*_wrist_.*", 20.0, 0.5),
+)
+
 _7520_14, _7520_22, _5020, _4010 = 0.010177520, 0.025101925, 0.003609725, 0.00425
 G1_ARMATURE = {
     **{
@@ -151,6 +164,7 @@ def g1() -> RobotDescription:
         torso_body="torso_link",
         imu_body="imu_in_pelvis",
         gain_groups=G1_GAINS,
+        learned_gain_groups=G1_LEARNED_GAINS,
         body_groups=G1_BODY_GROUPS,
         feet={side: f"{side}_ankle_roll_link" for side in SIDES},
         legs={

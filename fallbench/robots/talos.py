@@ -27,6 +27,20 @@ TALOS_GAINS = (
     GainGroup(r"gripper_.*", 50.0, 0.5),
 )
 
+# Servo gains under a learned whole-fall policy (strategy `onnx`): G1's (fallbench/robots/g1.py, of
+# the vendor's RL deployments) scaled by the stiffness rule of G1's stiff gains (K proportional to
+# mass x leg length, K_TALOS = K_G1 / 0.31), rounded; kd/kp ~0.025 s.
+TALOS_LEARNED_GAINS = (
+    GainGroup(r"leg_(left|right)_[123]_joint", 320.0, 8.0),  # hip yaw, roll, pitch
+    GainGroup(r"leg_(left|right)_4_joint", 480.0, 12.0),  # knee
+    GainGroup(r"leg_(left|right)_[56]_joint", 130.0, 3.2),  # ankle pitch, roll
+    GainGroup(r"torso_.*", 650.0, 16.0),
+    GainGroup(r"arm_(left|right)_[1-4]_joint", 130.0, 3.2),
+    GainGroup(r"arm_(left|right)_[5-7]_joint", 65.0, 1.6),
+    GainGroup(r"head_.*", 15.0, 0.4),
+    GainGroup(r"gripper_.*", 15.0, 0.4),
+)
+
 # Bodies by the damage group a contact on them counts for.
 TALOS_BODY_GROUPS: dict[str, tuple[str, ...]] = {
     "feet": ("leg_left_6_link", "leg_right_6_link", "leg_left_5_link", "leg_right_5_link"),
@@ -114,6 +128,7 @@ def talos() -> RobotDescription:
         torso_body="torso_2_link",
         imu_body="base_link",  # waist IMU, z up (the real IMU link is on the torso, z down)
         gain_groups=TALOS_GAINS,
+        learned_gain_groups=TALOS_LEARNED_GAINS,
         body_groups=TALOS_BODY_GROUPS,
         armature=read_srdf_armature(srdf),
         postures=postures,

@@ -32,6 +32,7 @@ class PreImpactController(Protocol):
     """Between fall detection and impact (`Strategy` implements it)."""
 
     per_chain_switching: bool  # each motor switches when its own chain touches down (002 Sec. V)
+    hands_over: bool  # False: a whole-fall controller, whose motors never switch to the gain policy
 
     def start(self, t: float, data: mujoco.MjData) -> None: ...
     def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None: ...

@@ -8,7 +8,9 @@ actuators. Everything the metrics need is recorded at the physics rate from MuJo
 Every motor switches to the gain policy at the first impact, unless the pre-impact strategy
 switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
 the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
-lands, when all switch. Contacts the strategy planned (a footstep) are not impacts.
+lands, when all switch. Contacts the strategy planned (a footstep) are not impacts. A whole-fall
+controller (`hands_over` False, a learned fall policy) never hands its motors over: it commands them
+from fall detection to the episode's end, and impacts are only logged.
 
 Impacts are watched inside the physics substeps: after fall detection, and until every motor has
 switched, a body touching for the first time (its contact sensor's "found" column) ends the substeps
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -131,6 +134,15 @@ class Takeover:
         return True
 
 
+class Sensed(NamedTuple):
+    """What the first half of a control step found, for its second half."""
+
+    t: float  # s
+    started: float  # perf_counter s at the step's start (the controller's timing)
+    found: np.ndarray  # per contact body: touching since the last control step
+    switched_now: bool  # motors switched to the gain policy at this step
+
+
 class Episode:
     """One fall of a built world under a pre-impact strategy and a gain policy (DESIGN.md's data
     path): each control step runs the fall detector, the strategy, the impact detector, the gain
@@ -188,27 +200,52 @@ class Episode:
         self.step = self.since = 0  # physics step now, and at the previous control step
         self.physics_s, self.status, self.error = 0.0, "ok", ""
 
+    @property
+    def finished(self) -> bool:
+        """The episode's end: its duration simulated, or the run diverged."""
+        return self.step >= self.n_steps or self.status == "diverged"
+
     def run(self) -> Recording:
-        while self.step < self.n_steps:
-            t = self.step * self.scenario.physics_dt
-            started = time.perf_counter()
-            self.detect_fall(t)
-            switched_now = False
-            found = self.found() if self.fall.time is not None else self.seen
-            if self.fall.time is not None:
-                self.detect_impacts(found)
-                switched_now = self.take_over(t)
-                self.strategy_step(t)
-            command = self.command(t, found, switched_now)
-            self.controller_ms.append(
-                (time.perf_counter() - started) * 1e3 if self.fall.time is not None else 0.0
-            )
-            self.write(command)
-            self.apply_push(t)
-            self.physics()
-            if self.diverged():
-                break
+        while not self.finished:
+            self.act(self.sense())
         return self.recording()
+
+    def sense(self) -> Sensed:
+        """The first half of a control step: fall detection, impacts, takeovers falling due. A
+        caller driving the episode itself (the Gymnasium environment) may read the state between
+        `sense` and `act`: nothing between them moves the simulation."""
+        t = self.step * self.scenario.physics_dt
+        started = time.perf_counter()
+        self.detect_fall(t)
+        switched_now = False
+        found = self.found() if self.fall.time is not None else self.seen
+        if self.fall.time is not None:
+            self.detect_impacts(found)
+            switched_now = self.take_over(t)
+        return Sensed(t, started, found, switched_now)
+
+    def strategy_steps_now(self) -> bool:
+        """Whether `act` will ask the strategy for a command at this control step."""
+        return (
+            self.fall.time is not None
+            and not self.takeover.switched.all()
+            and self.step % self.per_control == 0
+        )
+
+    def act(self, sensed: Sensed) -> None:
+        """The second half of a control step: the strategy, the gain policy, the servo, the push,
+        and the physics substeps to the next control step."""
+        t = sensed.t
+        if self.fall.time is not None:
+            self.strategy_step(t)
+        command = self.command(t, sensed.found, sensed.switched_now)
+        self.controller_ms.append(
+            (time.perf_counter() - sensed.started) * 1e3 if self.fall.time is not None else 0.0
+        )
+        self.write(command)
+        self.apply_push(t)
+        self.physics()
+        self.diverged()
 
     def found(self) -> np.ndarray:
         """Per contact body: whether its contact sensor found a contact since the last control step."""
@@ -263,8 +300,8 @@ class Episode:
         self.impact.update(touched, new)
         self.impacts.update(touched, new, self.data, self.data.qpos, self.data.qvel)
         takeover = self.takeover
-        if self.impact.time is None or takeover.switched.all():
-            return
+        if self.impact.time is None or takeover.switched.all() or not self.strategy.hands_over:
+            return  # a whole-fall controller (`hands_over` False) keeps its motors
         everything = not self.strategy.per_chain_switching or new & self.landed_bodies
         now = np.ones(len(takeover.switched), dtype=bool) if everything else np.zeros_like(takeover.switched)
         now[select_motors(self.pinocchio, new, self.world.joint_names)] = True
