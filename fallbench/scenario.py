@@ -699,3 +699,23 @@ def resolved_params(kind: str, name: str, defaults: dict[str, Any], given: dict[
             f"known: {', '.join(sorted(defaults)) or 'none'}"
         )
     return {**defaults, **given}
+
+
+def read_documents(path: Path | str) -> list[Any]:
+    """A scenario file's YAML documents, parsed once (for `points_with_seed`)."""
+    return _read_yaml(Path(path))
+
+
+def points_with_seed(
+    path: Path | str, documents: list[Any], seed: int, robot: str | None = None
+) -> list[ScenarioPoint]:
+    """Every sweep point of a scenario file's `documents` drawn with `seed` in place of the file's
+    seeds (its randomised keys and posture noise): a Gymnasium environment draws a fresh fall at
+    every reset. Not checked against the robot or the controllers: load the file once with
+    `load_scenario_file` and a check first."""
+    points = []
+    for doc in documents:
+        reseeded = copy.deepcopy(doc)
+        reseeded["seed"], reseeded["seeds"] = seed, 1
+        points += _load_document(Path(path), reseeded, robot, None)
+    return points

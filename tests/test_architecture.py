@@ -23,6 +23,7 @@ LAYERS: list[set[str]] = [
     {"preimpact", "postimpact"},
     {"analysis"},
     {"registry"},
+    {"environment"},  # the Gymnasium environment: drives the registry's worlds through sim's episode
     {"results"},
     {"report"},
     {"cli"},

@@ -356,10 +356,13 @@ class Episode:
 
     def physics(self) -> None:
         """The physics substeps up to the next control step, recorded; until every motor has
-        switched, a body touching for the first time ends them at once (to log the impact), and so
-        does a takeover falling due."""
+        switched (never under a whole-fall controller), a body touching for the first time ends
+        them at once (to log the impact), and so does a takeover falling due."""
         self.since = self.step
-        watching = self.fall.time is not None and not self.takeover.switched.all()
+        # a whole-fall controller hands nothing over: its impacts are logged from the trace alone
+        watching = (
+            self.fall.time is not None and not self.takeover.switched.all() and self.strategy.hands_over
+        )
         watched = self.world.contact_found_columns[~self.seen & self.unplanned] if watching else None
         model, data, trace = self.world.model, self.data, self.trace
         # s: the earliest takeover falling due (the list does not change during the substeps)
