@@ -366,6 +366,12 @@ def bench_command(
     e2e_repeats: int = typer.Option(
         1, min=1, help="Pairs (1 job, 2 jobs) per whole-command sweep size (medians)."
     ),
+    env_scenario: str = typer.Option(
+        "examples/learned/g1_falls.yaml",
+        help="Scenario file of the Gymnasium environment's throughput (needs the `learned` extra; empty: skip).",
+    ),
+    env_robot: str = typer.Option("g1", help="Robot of the environment's throughput."),
+    env_episodes: int = typer.Option(4, min=1, help="Episodes of the environment's throughput."),
 ) -> None:
     """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store.
 
@@ -393,6 +399,9 @@ def bench_command(
         store_runs=store,
         e2e_runs=sizes,
         e2e_repeats=e2e_repeats,
+        env_scenario=Path(env_scenario) if env_scenario else None,
+        env_robot=_robot(env_robot),
+        env_episodes=env_episodes,
     )
     table = markdown(figures)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -15,7 +15,9 @@ Everything is measured in one process on the same compiled model, medians of rep
   pushes (four policies, no reshaping) with 1 and 2 jobs, `fallbench run one` on the point, and
   the import time of what `run one` loads;
 - the results store at N runs (synthetic rows with a real run's schema): adding one run, a
-  grouped SQL query, a read filtered by scenario and policy.
+  grouped SQL query, a read filtered by scenario and policy;
+- the Gymnasium environment (`fallbench/Fall-v0`, with the `learned` extra): its steps per second
+  over whole episodes of random actions, against the time the same steps spent in mj_step.
 """
 
 from __future__ import annotations
@@ -99,6 +101,7 @@ TARGETS: dict[str, tuple[str, str, float]] = {
     "`run one`, whole command (s)": ("run_one_s", "<=", 1.0),
     "store: add one run, worst of the adds (s)": ("store_add_one_s_max", "<=", 2.0),
     "store: grouped query (s)": ("store_query_s_median", "<=", 1.0),
+    "Gymnasium env: time added to its physics (fraction)": ("env_overhead", "<=", 0.30),
 }
 # a QP target's figure -> the same figure of the solver's part alone (a floor that no work outside the solver lowers)
 SOLVER_SHARE = {
@@ -455,6 +458,54 @@ def store_figures(
     return figures
 
 
+def environment_figures(scenario: Path, robot: str | None, episodes: int) -> dict[str, float]:
+    """`fallbench/Fall-v0` on `scenario`: `episodes` whole episodes (reset seeds 0, 1, ...) of
+    uniform random actions (drawn outside the timing). env_overhead = wall time of the step calls /
+    time those steps spent in mj_step - 1. Empty without gymnasium (the `learned` extra)."""
+    import importlib.util
+
+    if importlib.util.find_spec("gymnasium") is None:
+        return {}
+    from fallbench.environment.fall import FallEnv
+
+    env = FallEnv(scenario, robot)
+    env.action_space.seed(0)
+    env.reset(seed=0)  # first world compile and imports, not counted
+    wall = physics = 0.0
+    steps = 0
+    for seed in range(episodes):
+        env.reset(seed=seed)
+        assert env.episode is not None
+        before, done = env.episode.physics_s, False
+        while not done:
+            action = env.action_space.sample()
+            started = time.perf_counter()
+            done = env.step(action)[2]
+            wall += time.perf_counter() - started
+            steps += 1
+        physics += env.episode.physics_s - before
+    return {
+        "env_episodes": episodes,
+        "env_steps": steps,
+        "env_steps_per_s": steps / wall,
+        "env_step_ms": wall / steps * 1e3,
+        "env_physics_ms_per_step": physics / steps * 1e3,
+        "env_overhead": wall / physics - 1.0,
+    }
+
+
+def _environment_lines(figures: dict[str, Any]) -> list[str]:
+    if "env_steps" not in figures:
+        return []
+    return [
+        f"Gymnasium environment `fallbench/Fall-v0` on `{figures['env_scenario']}` ({figures['env_episodes']} "
+        f"episodes of random actions, {figures['env_steps']} steps): {figures['env_steps_per_s']:.0f} steps/s, "
+        f"{figures['env_step_ms']:.2f} ms per step of which {figures['env_physics_ms_per_step']:.2f} ms in mj_step: "
+        f"the environment adds {figures['env_overhead'] * 100:.0f} % to its physics.",
+        "",
+    ]
+
+
 def run_bench(
     point: ScenarioPoint,
     pre_impact: str = "none",
@@ -464,9 +515,12 @@ def run_bench(
     store_runs: int = 100_000,
     e2e_runs: tuple[int, ...] = (20, 100),
     e2e_repeats: int = 1,
+    env_scenario: Path | None = None,
+    env_robot: str | None = None,
+    env_episodes: int = 4,
 ) -> dict[str, Any]:
-    """Every figure as one flat dict (keys documented in docs/bench.md); `store_runs` 0 or an empty
-    `e2e_runs` leaves those parts out."""
+    """Every figure as one flat dict (keys documented in docs/bench.md); `store_runs` 0, an empty
+    `e2e_runs` or no `env_scenario` leaves those parts out."""
     figures: dict[str, Any] = {"scenario": point.label, "pre_impact": pre_impact, "cpu_count": os.cpu_count()}
     progress("warming up")
     warm = simulate_named(point.scenario, "stiff", pre_impact)
@@ -499,6 +553,10 @@ def run_bench(
             store_figures(simulate(RunSpec(point, "stiff", pre_impact)), store_runs, repeats, progress)
         )
     figures.update(command_figures(point, list(e2e_runs), repeats, e2e_repeats, progress))
+    if env_scenario is not None:
+        progress(f"Gymnasium environment: {env_episodes} episodes of {env_scenario}")
+        env = environment_figures(env_scenario, env_robot, env_episodes)
+        figures.update(env | ({"env_scenario": str(env_scenario)} if env else {}))
     for key, comparison, limit in TARGETS.values():
         if key in figures:
             value = figures[key]
@@ -606,4 +664,5 @@ def _target_lines(figures: dict[str, Any]) -> list[str]:
 def markdown(figures: dict[str, Any]) -> str:
     """The figures of `run_bench` as the Markdown of reports/bench.md."""
     lines = _policy_lines(figures) + _qp_lines(figures) + _sweep_lines(figures) + _store_lines(figures)
+    lines += _environment_lines(figures)
     return "\n".join(lines + _target_lines(figures)) + "\n"

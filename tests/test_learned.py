@@ -1,0 +1,196 @@
+"""Learned whole-fall controllers: the `onnx` strategy with a tiny model the test builds itself
+(onnx's helpers, no PyTorch), the model checks, and the Gymnasium environment's contract."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+import onnx
+import pytest
+from gymnasium.utils.env_checker import check_env
+from onnx import TensorProto, helper, numpy_helper
+
+import fallbench.environment  # noqa: F401  (registers fallbench/Fall-v0)
+from fallbench.environment import ENV_ID
+from fallbench.preimpact.learned.observation import observation_size
+from fallbench.registry import load, simulate_named
+from fallbench.results.store import load_metrics
+
+JOINTS = {"g1": 29, "talos": 32}  # actuated joints (MuJoCo actuators)
+
+
+def tiny_model(
+    path: Path, inputs: int, outputs: int, dtype: int = TensorProto.FLOAT, batch: object = "batch"
+) -> Path:
+    """action = tanh(W obs + b), W small and random: a policy that moves every joint."""
+    numpy_type = helper.tensor_dtype_to_np_dtype(dtype)
+    weights = (0.3 * np.random.default_rng(0).standard_normal((inputs, outputs))).astype(numpy_type)
+    graph = helper.make_graph(
+        [
+            helper.make_node("MatMul", ["obs", "W"], ["h"]),
+            helper.make_node("Add", ["h", "b"], ["z"]),
+            helper.make_node("Tanh", ["z"], ["action"]),
+        ],
+        "tiny_policy",
+        [helper.make_tensor_value_info("obs", dtype, [batch, inputs])],
+        [helper.make_tensor_value_info("action", dtype, [batch, outputs])],
+        [
+            numpy_helper.from_array(weights, "W"),
+            numpy_helper.from_array(np.full(outputs, 0.1, numpy_type), "b"),
+        ],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 8
+    onnx.checker.check_model(model)
+    onnx.save(model, path)
+    return path
+
+
+def drop_file(tmp_path: Path, models: dict[str, Path], duration: float = 0.8) -> Path:
+    """A short drop per robot, `none` and `onnx` pinned, each robot with its own model."""
+    documents = [
+        f"name: learned_drop\nrobot: {robot}\nduration: {duration}\n"
+        "initial: {posture: default, height: 0.5}\npre_impact: [none, onnx]\n"
+        f"policy_params:\n  onnx: {{model: {model}}}\n"
+        for robot, model in models.items()
+    ]
+    path = tmp_path / "learned.yaml"
+    path.write_text("---\n".join(documents))
+    return path
+
+
+@pytest.fixture(scope="module")
+def g1_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tiny_model(tmp_path_factory.mktemp("onnx") / "g1.onnx", observation_size(29), 29)
+
+
+def test_onnx_policy_runs_in_a_sweep_on_both_robots(tmp_path: Path, sweep, g1_model: Path) -> None:
+    talos = tiny_model(tmp_path / "talos.onnx", observation_size(JOINTS["talos"]), JOINTS["talos"])
+    suite = drop_file(tmp_path, {"g1": g1_model, "talos": talos})
+    result = sweep(suite, tmp_path / "results", policies="stiff,zero")
+    assert result.exit_code == 0, result.output
+    table = load_metrics(tmp_path / "results")
+    assert (table.status == "ok").all(), table[["pre_impact", "policy", "status", "error"]]
+    # the whole-fall controller runs once per point with the policy `-`; `none` with each gain policy
+    labels = sorted(zip(table.robot, table.pre_impact, table.policy))
+    assert labels == sorted(
+        (robot, pre, policy)
+        for robot in ("g1", "talos")
+        for pre, policy in (("none", "stiff"), ("none", "zero"), ("onnx", "-"))
+    )
+
+
+def test_onnx_policy_drives_the_joints_through_the_landing(tmp_path: Path, g1_model: Path) -> None:
+    [point] = load([drop_file(tmp_path, {"g1": g1_model})])
+    recording = simulate_named(point.scenario, "-", "onnx")
+    world, detected = recording.world, recording.time >= recording.fall_time
+    assert recording.impact_time is not None and np.isnan(recording.switch_time).all()  # never handed over
+    after_impact = recording.time > recording.impact_time + 0.05
+    gains = np.array([world.robot.learned_gains(j)[0] for j in world.joint_names])
+    # the policy's servo to the end, not a gain policy's
+    assert np.allclose(recording.kp[after_impact], gains)
+    targets = recording.q_ref[detected]
+    changes = np.flatnonzero(np.any(np.diff(targets, axis=0) != 0, axis=1)) + 1
+    # a new target every 20 ms (50 Hz, the default control_dt) from fall detection to the end
+    decided = recording.time[detected][changes]
+    assert np.allclose(np.diff(decided), 0.02) and decided[-1] >= point.scenario.duration - 0.02 - 1e-9
+    assert recording.policy_stats["policy_decisions"] == len(changes)
+
+
+@pytest.mark.parametrize(
+    ("inputs", "outputs", "dtype", "reason"),
+    [
+        (observation_size(29) - 3, 29, TensorProto.FLOAT, "has shape ['batch', 90], expected [1, 93]"),
+        (observation_size(29), 12, TensorProto.FLOAT, "has shape ['batch', 12], expected [1, 29]"),
+        (observation_size(29), 29, TensorProto.DOUBLE, "is tensor(double), expected tensor(float)"),
+    ],
+)
+def test_a_model_that_does_not_fit_is_one_line_before_any_run(
+    tmp_path: Path, sweep, inputs: int, outputs: int, dtype: int, reason: str
+) -> None:
+    model = tiny_model(tmp_path / "bad.onnx", inputs, outputs, dtype)
+    suite = drop_file(tmp_path, {"g1": model})
+    result = sweep(suite, tmp_path / "results")
+    assert result.exit_code == 2
+    [line] = result.output.strip().splitlines()
+    assert line.startswith(f"error: {suite}:7: policy_params.onnx.model: ") and reason in line
+    assert result.simulated == () and not (tmp_path / "results").exists()
+
+
+def test_a_strategy_chosen_on_the_command_line_is_checked_too(tmp_path: Path, sweep) -> None:
+    suite = tmp_path / "drop.yaml"
+    suite.write_text("name: d\nrobot: g1\nduration: 0.5\ninitial: {height: 0.5}\n")
+    result = sweep(suite, tmp_path / "results", pre_impact="none,onnx")
+    assert result.exit_code == 2
+    assert result.output.strip() == (
+        f"error: {suite}: policy_params.onnx.model: the ONNX policy file is required for strategy 'onnx'"
+    )
+
+
+# ---------------------------------------------------------------- the Gymnasium environment
+
+
+@pytest.fixture(scope="module")
+def falls(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Randomised short G1 drops (height and friction drawn at every reset)."""
+    path = tmp_path_factory.mktemp("env") / "falls.yaml"
+    path.write_text(
+        "name: env_drop\nrobot: g1\nduration: 0.5\ninitial: {posture: default, height: 0.4}\n"
+        "randomize:\n  initial.height: [0.3, 0.6]\n  friction: [0.5, 1.0]\n"
+    )
+    return path
+
+
+def test_environment_reset_and_step_contract(falls: Path) -> None:
+    env = gymnasium.make(ENV_ID, scenario=str(falls))
+    obs, info = env.reset(seed=3)
+    assert obs.shape == (observation_size(29),) and obs.dtype == np.float32
+    assert env.action_space.shape == (29,)
+    assert np.allclose(obs[:3], [0, 0, -1], atol=0.05)  # upright: gravity along the root's -z
+    again, info_again = env.reset(seed=3)
+    assert np.array_equal(obs, again) and info["point"] == info_again["point"]  # a seed is one fall
+    assert env.reset(seed=4)[1]["point"] != info["point"]  # another seed, another draw
+    steps, terminated, rewards = 0, False, []
+    while not terminated:
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        assert not truncated and obs.shape == (observation_size(29),)
+        rewards.append(reward)
+        steps += 1
+    assert info["t"] == pytest.approx(0.5)  # terminated at the episode's end
+    assert all(r <= 0 for r in rewards) and min(rewards) < 0  # damage costs; the landing costs most
+    with pytest.raises(RuntimeError):
+        env.step(env.action_space.sample())
+    check_env(env.unwrapped, skip_render_check=True)
+
+
+def test_environment_steps_the_runner_episode(falls: Path, g1_model: Path, tmp_path: Path) -> None:
+    """The onnx strategy in the runner and the same model acting through the environment on the
+    same fall give the same trajectory: one episode code."""
+    import onnxruntime
+
+    fixed = tmp_path / "fixed.yaml"
+    fixed.write_text(
+        "name: env_drop\nrobot: g1\nduration: 0.5\ninitial: {posture: default, height: 0.4}\n"
+        f"policy_params:\n  onnx: {{model: {g1_model}}}\n"
+    )
+    env = gymnasium.make(ENV_ID, scenario=str(fixed)).unwrapped
+    session = onnxruntime.InferenceSession(str(g1_model), providers=["CPUExecutionProvider"])
+    obs, _ = env.reset(seed=0)
+    terminated = False
+    while not terminated:
+        obs, _, terminated, _, _ = env.step(session.run(None, {"obs": obs[None]})[0][0])
+    [point] = load([fixed])
+    recording = simulate_named(point.scenario, "-", "onnx")
+    assert env.episode.step == recording.steps
+    assert np.array_equal(env.episode.trace.qpos, recording.qpos)
+
+
+def test_vectorised_environment(falls: Path) -> None:
+    envs = gymnasium.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", scenario=str(falls))
+    obs, _ = envs.reset(seed=[1, 2])
+    assert obs.shape == (2, observation_size(29))
+    obs, rewards, terminated, truncated, _ = envs.step(envs.action_space.sample())
+    assert obs.shape == (2, observation_size(29)) and rewards.shape == (2,)
+    envs.close()
