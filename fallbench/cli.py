@@ -88,6 +88,41 @@ def _strategies(text: str) -> list[str]:
     return _names(text, STRATEGIES, "--pre-impact", "strategy")
 
 
+def _with_params(points: list[ScenarioPoint], settings: list[str]) -> list[ScenarioPoint]:
+    """The points with `--policy-param NAME.KEY=VALUE` settings (YAML values) in their
+    `policy_params`, checked as if the files had said so."""
+    import dataclasses
+
+    from ruamel.yaml import YAML
+
+    from fallbench.registry import check_controllers
+    from fallbench.scenario import Scenario
+
+    if not settings:
+        return points
+    overrides: dict[str, dict[str, object]] = {}
+    for setting in settings:
+        dotted, _, text = setting.partition("=")
+        name, _, key = dotted.partition(".")
+        if not (name and key and text):
+            fail(f"--policy-param {setting!r}: expected NAME.KEY=VALUE, e.g. onnx.model=policy.onnx")
+        overrides.setdefault(name, {})[key] = YAML(typ="safe").load(text)
+    changed = []
+    for point in points:
+        params = {name: dict(values) for name, values in point.scenario.policy_params.items()}
+        for name, values in overrides.items():
+            params[name] = params.get(name, {}) | values
+        try:
+            scenario = Scenario.model_validate(point.scenario.model_dump() | {"policy_params": params})
+        except ValueError as exc:
+            fail(f"--policy-param: {' '.join(str(exc).split())}")
+        problem = check_controllers(scenario)
+        if problem:
+            fail(f"{point.source}: --policy-param: {problem[0]}: {problem[1]}")
+        changed.append(dataclasses.replace(point, scenario=scenario))
+    return changed
+
+
 def _check_strategies(points: list[ScenarioPoint], strategies: list[str]) -> None:
     """The strategies' own checks (an ONNX model that must fit the robot) on every point they will
     run on, before any run: one `error:` line and exit 2 on the first problem."""
@@ -174,6 +209,11 @@ def run_sweep_command(
         None,
         help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see docs/scenarios.md).",
     ),
+    policy_param: list[str] = typer.Option(
+        [],
+        "--policy-param",
+        help="NAME.KEY=VALUE (repeatable): a controller parameter set in every point's `policy_params`, e.g. onnx.model=my_policy.onnx.",
+    ),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -183,7 +223,7 @@ def run_sweep_command(
     from fallbench.results.runner import expand, run_sweep
 
     _check_backend(backend, scheduler)
-    points = _load(files or SHIPPED, _robot(robot))
+    points = _with_params(_load(files or SHIPPED, _robot(robot)), policy_param)
     strategies = _strategies(pre_impact)
     _check_strategies(points, strategies)
     specs = expand(points, _policies(policies), strategies)
