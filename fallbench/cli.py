@@ -407,10 +407,12 @@ def bench_command(
         1, min=1, help="Pairs (1 job, 2 jobs) per whole-command sweep size (medians)."
     ),
     env_scenario: str = typer.Option(
-        "examples/learned/g1_falls.yaml",
+        "examples/learned/falls.yaml",
         help="Scenario file of the Gymnasium environment's throughput (needs the `learned` extra; empty: skip).",
     ),
-    env_robot: str = typer.Option("g1", help="Robot of the environment's throughput."),
+    env_robot: str | None = typer.Option(
+        None, help="Robot of the environment's throughput (default: the file's)."
+    ),
     env_episodes: int = typer.Option(4, min=1, help="Episodes of the environment's throughput."),
 ) -> None:
     """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store.

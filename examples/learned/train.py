@@ -1,7 +1,7 @@
 """Train a learned whole-fall policy for G1 on fallbench's Gymnasium environment and export it to
 ONNX in the `fallbench-obs-v1` layout (docs/methods/learned.md).
 
-PPO (stable-baselines3) on CPU, on the randomised G1 pushes and drops of g1_falls.yaml. The
+PPO (stable-baselines3) on CPU, on the randomised G1 pushes and drops of falls.yaml. The
 observation is normalised by running statistics during training (VecNormalize); the exported model
 carries that normalisation inside, so it reads the raw `fallbench-obs-v1` observation and returns
 the raw action (the `onnx` strategy clips it to [-1, 1]).
@@ -123,7 +123,7 @@ def check_export(model: PPO, normalizer: VecNormalize, path: Path, observations:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--scenario", type=Path, default=HERE / "g1_falls.yaml")
+    parser.add_argument("--scenario", type=Path, default=HERE / "falls.yaml")
     parser.add_argument("--robot", default="g1")
     parser.add_argument("--out", type=Path, default=Path("runs/g1_ppo"))
     parser.add_argument("--seed", type=int, default=0)

@@ -4,7 +4,7 @@
     import gymnasium as gym
     import fallbench.environment  # noqa: F401  (registers the id)
 
-    env = gym.make("fallbench/Fall-v0", scenario="examples/learned/g1_falls.yaml", robot="g1")
+    env = gym.make("fallbench/Fall-v0", scenario="examples/learned/falls.yaml", robot="g1")
 
 (or `gym.make("fallbench.environment:fallbench/Fall-v0", ...)`, which imports it). See
 docs/methods/learned.md.

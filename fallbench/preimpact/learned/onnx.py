@@ -39,6 +39,12 @@ def _session(path: str, modified_ns: int, size: int) -> onnxruntime.InferenceSes
     return onnxruntime.InferenceSession(path, options, providers=["CPUExecutionProvider"])
 
 
+@cache
+def _digest(path: str, modified_ns: int, size: int) -> str:
+    """SHA-256 of a file's content, read once per file version (a run id asks for it often)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 def session_for(path: Path) -> onnxruntime.InferenceSession:
     status = path.stat()
     return _session(str(path.resolve()), status.st_mtime_ns, status.st_size)
@@ -104,7 +110,8 @@ class OnnxStrategy(LearnedStrategy):
         model = scenario.policy_params.get(cls.name, {}).get("model", "")
         if not model or not Path(model).is_file():
             return {}
-        return {model: hashlib.sha256(Path(model).read_bytes()).hexdigest()}
+        status = Path(model).stat()
+        return {model: _digest(str(Path(model).resolve()), status.st_mtime_ns, status.st_size)}
 
     def decide(self, observation: np.ndarray) -> np.ndarray:
         output = self.session.run(None, {self.input_name: observation[None]})[0]
