@@ -152,13 +152,15 @@ def test_environment_reset_and_step_contract(falls: Path) -> None:
     again, info_again = env.reset(seed=3)
     assert np.array_equal(obs, again) and info["point"] == info_again["point"]  # a seed is one fall
     assert env.reset(seed=4)[1]["point"] != info["point"]  # another seed, another draw
-    steps, terminated, rewards = 0, False, []
+    terminated, rewards, times = False, [], [info["t"]]
     while not terminated:
         obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
         assert not truncated and obs.shape == (observation_size(29),)
         rewards.append(reward)
-        steps += 1
+        times.append(info["t"])
     assert info["t"] == pytest.approx(0.5)  # terminated at the episode's end
+    steps = np.diff(times)  # one step = one decision of the policy, 20 ms apart (control_dt)
+    assert np.allclose(steps[:-1], 0.02) and 0 < steps[-1] <= 0.02 + 1e-9
     assert all(r <= 0 for r in rewards) and min(rewards) < 0  # damage costs; the landing costs most
     with pytest.raises(RuntimeError):
         env.step(env.action_space.sample())
