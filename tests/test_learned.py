@@ -129,6 +129,19 @@ def test_a_strategy_chosen_on_the_command_line_is_checked_too(tmp_path: Path, sw
     )
 
 
+def test_policy_param_option_gives_the_model_to_every_point(tmp_path: Path, sweep, g1_model: Path) -> None:
+    suite = tmp_path / "drop.yaml"
+    suite.write_text("name: d\nrobot: g1\nduration: 0.4\ninitial: {height: 0.3}\n")
+    result = sweep(suite, tmp_path / "results", "--policy-param", f"onnx.model={g1_model}", pre_impact="onnx")
+    assert result.exit_code == 0, result.output
+    table = load_metrics(tmp_path / "results")
+    assert list(zip(table.pre_impact, table.policy, table.status)) == [("onnx", "-", "ok")]
+    bad = sweep(suite, tmp_path / "other", "--policy-param", "onnx.model", pre_impact="onnx")
+    assert bad.exit_code == 2 and bad.output.startswith(
+        "error: --policy-param 'onnx.model': expected NAME.KEY=VALUE"
+    )
+
+
 # ---------------------------------------------------------------- the Gymnasium environment
 
 
