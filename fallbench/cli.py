@@ -157,6 +157,10 @@ def run_sweep_command(
         None,
         help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see docs/scenarios.md).",
     ),
+    timeseries: str = typer.Option(
+        "landing",
+        help="How much of each run's time series to store: landing (every physics step from 0.05 s before the first impact to 0.3 s after it, 100 Hz elsewhere, quantised; ~60 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run).",
+    ),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -166,6 +170,7 @@ def run_sweep_command(
     from fallbench.results.runner import expand, run_sweep
 
     _check_backend(backend, scheduler)
+    _check_timeseries(timeseries)
     points = _load(files or SHIPPED, _robot(robot))
     specs = expand(points, _policies(policies), _strategies(pre_impact))
     table = run_sweep(
@@ -175,6 +180,7 @@ def run_sweep_command(
         progress=progress and sys.stderr.isatty(),
         backend=backend,
         scheduler=scheduler,
+        timeseries=timeseries,
     )
     typer.echo(_sweep_summary(table, reports).round(3).to_string())
     failed = table[table.status != "ok"]
@@ -185,6 +191,13 @@ def run_sweep_command(
         typer.echo(f"  {row.status}: {row.pre_impact}/{row.policy} {row.point}: {row.error}", err=True)
     if strict and len(failed):
         raise typer.Exit(1)
+
+
+def _check_timeseries(mode: str) -> None:
+    from fallbench.results.series import TIMESERIES_MODES
+
+    if mode not in TIMESERIES_MODES:
+        fail(f"--timeseries: unknown mode {mode!r}; known: {', '.join(TIMESERIES_MODES)}")
 
 
 def _check_backend(backend: str, scheduler: str | None) -> None:
@@ -223,12 +236,17 @@ def run_one_command(
         "none", help="Pre-impact strategy (none, reshape, direction, or a plugin's)."
     ),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
+    timeseries: str = typer.Option(
+        "landing",
+        help="How much of each run's time series to store: landing (every physics step from 0.05 s before the first impact to 0.3 s after it, 100 Hz elsewhere, quantised; ~60 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run).",
+    ),
 ) -> None:
     """Run one case, store it, and print its metrics."""
     from fallbench.results.runner import RunSpec, execute
 
+    _check_timeseries(timeseries)
     chosen = _select(_load([file]), point, file)
-    row = execute(RunSpec(chosen, _policies(policy)[0], _strategies(pre_impact)[0]), results)
+    row = execute(RunSpec(chosen, _policies(policy)[0], _strategies(pre_impact)[0]), results, timeseries)
     width = max(len(k) for k in row)
     for key, value in row.items():
         typer.echo(f"{key:<{width}}  {value:.4g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
