@@ -170,14 +170,19 @@ def figure(comparison: Comparison, out: Path) -> Path:
     table = comparison.table
     measures = list(dict.fromkeys(table.measure))
     groups = list(dict.fromkeys(zip(table.robot, table.family, table.pre_impact, table.policy)))
-    height = max(2.5, 0.28 * len(groups) + 1.2)
+    columns = min(4, len(measures))
+    rows_of_panels = -(-len(measures) // columns)
+    panel_height = 0.3 * len(groups) + 1.0
     fig, axes = plt.subplots(
-        1, len(measures), figsize=(3.0 * len(measures) + 2.5, height), sharey=True, squeeze=False
+        rows_of_panels,
+        columns,
+        figsize=(3.2 * columns + 2.5, panel_height * rows_of_panels + 0.9),
+        sharey=True,
+        squeeze=False,
     )
     labels = [f"{(r + ' ') if r else ''}{f}: {s} + {p}" for r, f, s, p in groups]
-    for ax, measure in zip(axes[0], measures):
-        rows = table[table.measure == measure]
-        for row in rows.itertuples():
+    for ax, measure in zip(axes.flat, measures):
+        for row in table[table.measure == measure].itertuples():
             y = groups.index((row.robot, row.family, row.pre_impact, row.policy))
             colour = VERDICT_COLOURS[row.verdict]
             if not np.isnan(row.low):
@@ -188,15 +193,17 @@ def figure(comparison: Comparison, out: Path) -> Path:
         ax.set_title(f"{measure}\n({UNITS.get(measure, '')}, {direction})", fontsize=8)
         ax.grid(alpha=0.3, axis="x")
         ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(measures) :]:
+        ax.axis("off")
     axes[0, 0].set_yticks(range(len(groups)), labels, fontsize=7)
-    axes[0, 0].invert_yaxis()
+    axes[0, 0].set_ylim(len(groups) - 0.5, -0.5)
     handles = [plt.Line2D([], [], color=c, marker="o", lw=2, label=v) for v, c in VERDICT_COLOURS.items()]
     fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=8, frameon=False)
     fig.suptitle(
         "Change B - A per family, strategy and policy: median (fell, joint hits: mean) of paired runs, 95 % CI",
         fontsize=9,
     )
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
     path = out / "compare.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)
