@@ -93,6 +93,11 @@ def test_landing_keeps_the_landing_at_physics_rate_within_resolution(
     window = (kept.t >= impact - series.LANDING_BEFORE) & (kept.t <= impact + series.LANDING_AFTER)
     assert np.allclose(np.diff(kept.t[window]), dt, atol=1e-6)  # every physics step in the landing
     assert window.sum() >= (series.LANDING_BEFORE + series.LANDING_AFTER) / dt
+    windows = series.landing_windows(outcome.row)
+    assert len(windows) == 1 + len(json.loads(outcome.row["impact_events"])) >= 2  # feet, and a later group
+    for start, end in windows[1:]:  # each body group's first contact, at every physics step too
+        inside = (kept.t >= start + 1e-6) & (kept.t <= end - 1e-6)
+        assert np.allclose(np.diff(kept.t[inside]), dt, atol=1e-6) and inside.sum() >= 0.05 / dt
     outside = kept.t[~window & (kept.t < impact)]
     assert np.allclose(np.diff(outside), 0.01, atol=1e-6)  # the replay's 100 Hz before it
     for column in kept.columns:
@@ -103,6 +108,20 @@ def test_landing_keeps_the_landing_at_physics_rate_within_resolution(
         assert np.array_equal(np.isnan(error), original[column].isna().to_numpy()), column
         assert np.nanmax(error - bound) <= 0, column
     assert (results / "runs" / rid / "series.parquet").stat().st_size < 100 * 1024
+
+
+def test_landing_keeps_every_step_about_later_contacts_too() -> None:
+    """A head contact 1 s after the feet: its window is at the physics rate, between them 100 Hz."""
+    dt, t = 0.0005, np.arange(0, 2.0, 0.0005)
+    qpos = np.where(np.arange(len(t)) % 20 == 0, 1.0, np.nan)
+    frame = pd.DataFrame({"t": t, "q:knee": np.sin(t), "qpos:0": qpos}).astype(np.float32)
+    row = {"impact_time": 0.4, "impact_events": json.dumps([{"t": 0.4}, {"t": 1.4}])}
+    windows = series.landing_windows(row)
+    assert np.allclose(windows, [(0.35, 0.7), (0.39, 0.45), (1.39, 1.45)])
+    kept = t[series.landing_rows(frame, windows)]
+    assert np.allclose(np.diff(kept[(kept > 1.39) & (kept < 1.45)]), dt)
+    assert np.allclose(np.diff(kept[(kept > 0.71) & (kept < 1.38)]), 0.01)
+    assert len(kept) == 200 + (701 - 36) + (121 - 7)  # 100 Hz rows, then each window's steps not on them
 
 
 def test_none_keeps_no_series_and_the_same_metrics(outcome: Outcome, tmp_path: Path) -> None:

@@ -3,9 +3,10 @@
 `analysis.metrics.timeseries` gives the series at the physics rate (float32), with the full qpos
 every 1/REPLAY_RATE s and NaN in between. The store keeps, in `series.parquet`:
 
-- `landing` (the default): the rows of the landing, from LANDING_BEFORE s before the first impact
-  to LANDING_AFTER s after it, at every physics step; elsewhere the rows the replay keeps
-  (REPLAY_RATE, 100 Hz). Each value is rounded to its quantity's resolution (RESOLUTIONS) and
+- `landing` (the default): at every physics step, the rows of the landing, from LANDING_BEFORE s
+  before the first impact to LANDING_AFTER s after it, and from EVENT_BEFORE s before to
+  EVENT_AFTER s after each body group's first contact (the run's `impact_events`); elsewhere the
+  rows the replay keeps (REPLAY_RATE, 100 Hz). Each value is rounded to its quantity's resolution (RESOLUTIONS) and
   stored as an integer count of that resolution (Parquet delta encoding + zstd): value = count x
   resolution, the resolutions by column-name prefix being in the file's key-value metadata
   `fallbench`. A run without an impact keeps the replay rows only.
@@ -33,6 +34,7 @@ DEFAULT_TIMESERIES = "landing"
 LANDING_BEFORE = 0.05  # s before the first impact kept at every physics step
 # s after it: covers 002 Fig. 5's landing column (0.25 s) and the metrics' landing window (0.15 s)
 LANDING_AFTER = 0.30
+EVENT_BEFORE, EVENT_AFTER = 0.01, 0.05  # s about each later first contact of a body group
 # Resolution of each stored quantity, by column-name prefix (units of the column)
 RESOLUTIONS: tuple[tuple[str, float], ...] = (
     ("t", 1e-6),  # s
@@ -66,12 +68,35 @@ def _replay_rows(series: pd.DataFrame) -> np.ndarray:
     return series[qpos[0]].notna().to_numpy()
 
 
-def landing_rows(series: pd.DataFrame, impact_time: float | None) -> np.ndarray:
-    """Rows kept by `landing`: the replay rows, and every row within the landing window."""
+def _finite(value: object) -> float | None:
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return number if np.isfinite(number) else None
+
+
+def landing_windows(metrics: dict[str, object]) -> list[tuple[float, float]]:
+    """(start, end) in s of the rows `landing` keeps at every physics step: the landing about the
+    first impact (`impact_time`), and a short window about each body group's first contact
+    (`impact_events`: later impacts, e.g. hands, knees, torso, head)."""
+    windows = []
+    impact = _finite(metrics.get("impact_time"))
+    if impact is not None:
+        windows.append((impact - LANDING_BEFORE, impact + LANDING_AFTER))
+    for event in json.loads(str(metrics.get("impact_events") or "[]")):
+        t = _finite(event.get("t"))
+        if t is not None:
+            windows.append((t - EVENT_BEFORE, t + EVENT_AFTER))
+    return windows
+
+
+def landing_rows(series: pd.DataFrame, windows: list[tuple[float, float]]) -> np.ndarray:
+    """Rows kept by `landing`: the replay rows, and every row within a window."""
     keep = _replay_rows(series).copy()
-    if impact_time is not None and np.isfinite(impact_time):
-        t = series["t"].to_numpy(dtype=float)
-        keep |= (t >= impact_time - LANDING_BEFORE - 1e-9) & (t <= impact_time + LANDING_AFTER + 1e-9)
+    t = series["t"].to_numpy(dtype=float)
+    for start, end in windows:
+        keep |= (t >= start - 1e-9) & (t <= end + 1e-9)
     return keep
 
 
@@ -110,16 +135,16 @@ def _floats(frame: pd.DataFrame) -> pa.Table:
     return table
 
 
-def encode(series: pd.DataFrame, mode: str, impact_time: float | None, layout: int) -> bytes:
-    """The bytes of `series.parquet` for one run in `mode` (`landing` or `full`)."""
+def encode(series: pd.DataFrame, mode: str, windows: list[tuple[float, float]], layout: int) -> bytes:
+    """The bytes of `series.parquet` for one run in `mode` (`landing`: the replay rows and
+    `windows`, see landing_windows; `full`: every row)."""
     import pyarrow.parquet as pq
 
     header: dict[str, object] = {"layout": layout, "timeseries": mode}
     if mode == "landing":
-        table = _quantised(series[landing_rows(series, impact_time)])
+        table = _quantised(series[landing_rows(series, windows)])
         header |= {
-            "landing_before_s": LANDING_BEFORE,
-            "landing_after_s": LANDING_AFTER,
+            "physics_rate_windows_s": [[round(s, 6), round(e, 6)] for s, e in windows],
             "resolutions": [list(r) for r in RESOLUTIONS],
         }
         options: dict[str, object] = {"column_encoding": "DELTA_BINARY_PACKED", "use_dictionary": False}

@@ -35,7 +35,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fallbench.results.series import DEFAULT_TIMESERIES, TIMESERIES_MODES
+from fallbench.results.series import DEFAULT_TIMESERIES, TIMESERIES_MODES, landing_windows
 from fallbench.results.series import FILE as SERIES
 from fallbench.results.series import encode as encode_series
 from fallbench.scenario import canonical_json
@@ -140,8 +140,7 @@ def write_run(
         YAML(typ="safe", pure=True).dump(spec, text)
         _fsync_write(tmp / "spec.yaml", text.getvalue().encode())
         if kept != "none":
-            impact = metrics.get("impact_time")
-            data = encode_series(series, kept, None if impact is None else float(impact), LAYOUT_VERSION)
+            data = encode_series(series, kept, landing_windows(metrics), LAYOUT_VERSION)
             _fsync_write(tmp / SERIES, data)
         _fsync_write(tmp / METRICS_JSON, metrics_json(metrics, kept))
         os.rename(tmp, final)
