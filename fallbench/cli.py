@@ -159,7 +159,7 @@ def run_sweep_command(
     ),
     timeseries: str = typer.Option(
         "landing",
-        help="How much of each run's time series to store: landing (every physics step from 0.05 s before the first impact to 0.3 s after it, 100 Hz elsewhere, quantised; ~60 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run).",
+        help="How much of each run's time series to store: landing (every physics step about the first impact and each body group's first contact, 100 Hz elsewhere, quantised; ~55 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run).",
     ),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
@@ -238,7 +238,7 @@ def run_one_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     timeseries: str = typer.Option(
         "landing",
-        help="How much of each run's time series to store: landing (every physics step from 0.05 s before the first impact to 0.3 s after it, 100 Hz elsewhere, quantised; ~60 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run).",
+        help="How much of each run's time series to store: landing (every physics step about the first impact and each body group's first contact, 100 Hz elsewhere, quantised; ~55 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run).",
     ),
 ) -> None:
     """Run one case, store it, and print its metrics."""
