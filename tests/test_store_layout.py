@@ -185,3 +185,11 @@ def test_run_commands_refuse_an_unknown_timeseries_mode(tmp_path: Path) -> None:
         assert result.exit_code == 2
         assert result.stderr.strip() == "error: --timeseries: unknown mode 'some'; known: landing, full, none"
         assert not (tmp_path / "r").exists()
+
+
+def test_a_folder_of_a_newer_layout_is_refused_by_name(tmp_path: Path) -> None:
+    folder = tmp_path / "runs" / "abc"
+    folder.mkdir(parents=True)
+    (folder / "metrics.json").write_text(json.dumps({"layout": 3, "timeseries": "none", "metrics": {}}))
+    with pytest.raises(ValueError, match="stored by a newer fallbench .layout 3, this one reads up to 2"):
+        store.load_run_row(tmp_path, "abc")

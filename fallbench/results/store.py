@@ -45,9 +45,8 @@ if TYPE_CHECKING:  # pandas, pyarrow and DuckDB load only when the store is used
     import pyarrow as pa
 
 SCHEMA_VERSION = 1  # of the metric row (its `schema_version` column)
-LAYOUT_VERSION = (
-    2  # of a run's folder: 1 = metrics.parquet + timeseries.parquet, 2 = metrics.json + series.parquet
-)
+# of a run's folder: 1 = metrics.parquet + timeseries.parquet, 2 = metrics.json + series.parquet
+LAYOUT_VERSION = 2
 RUNS = "runs"
 METRICS_JSON = "metrics.json"  # one run's layout, time-series mode and metric row, in its folder
 METRICS = "metrics.parquet"  # one run's row, in its folder (layout 1)
@@ -308,7 +307,12 @@ def _run_row(results: Path, rid: str) -> pa.Table:
 
     folder = run_dir(results, rid)
     if (folder / METRICS_JSON).exists():
-        return row_table(json.loads((folder / METRICS_JSON).read_bytes())["metrics"])
+        stored = json.loads((folder / METRICS_JSON).read_bytes())
+        if stored["layout"] > LAYOUT_VERSION:
+            raise ValueError(
+                f"{folder}: stored by a newer fallbench (layout {stored['layout']}, this one reads up to {LAYOUT_VERSION})"
+            )
+        return row_table(stored["metrics"])
     return pq.read_table(folder / METRICS)
 
 
