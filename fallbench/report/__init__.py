@@ -50,7 +50,9 @@ def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) 
         & (runs.pre_impact == "none")
         & (runs.seed == 0)
     ]
-    ok = ok[[store.has_timeseries(results, rid) for rid in ok.run_id]]  # not stored with --timeseries none
+    ok = ok[
+        ok.run_id.map(lambda rid: store.has_timeseries(results, rid)).astype(bool)
+    ]  # not stored with --timeseries none
     points = [(point, ok[ok.point == point]) for point in natural_sorted(ok.point.unique())]
     points = [(point, group) for point, group in points if group.policy.nunique() > 1]
     for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):
