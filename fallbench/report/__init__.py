@@ -50,9 +50,7 @@ def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) 
         & (runs.pre_impact == "none")
         & (runs.seed == 0)
     ]
-    ok = ok[
-        ok.run_id.map(lambda rid: store.has_timeseries(results, rid)).astype(bool)
-    ]  # not stored with --timeseries none
+    ok = store.with_timeseries(results, ok)
     points = [(point, ok[ok.point == point]) for point in natural_sorted(ok.point.unique())]
     points = [(point, group) for point, group in points if group.policy.nunique() > 1]
     for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):

@@ -208,9 +208,7 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
         "pre_impact"
     )
-    rows = rows[
-        rows.run_id.map(lambda rid: store.has_timeseries(results, rid)).astype(bool)
-    ]  # not --timeseries none
+    rows = store.with_timeseries(results, rows)
     if not {"none", "reshape"} <= set(rows.index):
         return []
     series = {s: store.load_timeseries(results, rows.loc[s, "run_id"]) for s in ("none", "reshape")}

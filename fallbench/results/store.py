@@ -465,6 +465,11 @@ def has_timeseries(results: Path, rid: str) -> bool:
     return (folder / SERIES).exists() or (folder / LEGACY_SERIES).exists()
 
 
+def with_timeseries(results: Path, runs: pd.DataFrame) -> pd.DataFrame:
+    """The runs (rows with `run_id`) whose time series is stored (not `--timeseries none`)."""
+    return runs[runs.run_id.map(lambda rid: has_timeseries(results, rid)).astype(bool)]
+
+
 def load_timeseries(results: Path, rid: str) -> pd.DataFrame:
     """A run's stored time series as float32 columns (`t` in s first), of either layout; raises
     SeriesMissing for a run stored with `--timeseries none`."""
