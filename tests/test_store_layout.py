@@ -35,11 +35,15 @@ def outcome(tmp_path_factory) -> Outcome:
 
 
 def _bits(table: pa.Table) -> list[object]:
-    """Each column's values, floats as their bit patterns (NaN payloads included)."""
+    """Each column's type, nulls and values, floats as their bit patterns (NaN payloads included)."""
     return [
-        column.to_numpy(zero_copy_only=False).view(np.uint64).tolist()
-        if pa.types.is_floating(column.type)
-        else column.to_pylist()
+        (
+            str(column.type),
+            column.is_null().to_pylist(),
+            column.to_numpy(zero_copy_only=False).view(np.uint64).tolist()
+            if pa.types.is_floating(column.type)
+            else column.to_pylist(),
+        )
         for column in table.columns
     ]
 

@@ -106,11 +106,26 @@ def metrics_json(metrics: dict[str, Any], timeseries: str) -> bytes:
 
 
 def row_table(metrics: dict[str, Any]) -> pa.Table:
-    """One metric row as an Arrow table, typed as pandas types it (as layout 1 stored it)."""
-    import pandas as pd
+    """One metric row as an Arrow table, as layout 1 stored it through pandas: bool, int64,
+    double (NaN as null), large_string, null for None (~1 ms a row; through pandas ~16 ms)."""
     import pyarrow as pa
 
-    return pa.Table.from_pandas(pd.DataFrame([metrics]), preserve_index=False)
+    types = ((bool, pa.bool_()), (int, pa.int64()), (float, pa.float64()), (str, pa.large_string()))
+
+    def arrow_type(name: str, value: Any) -> pa.DataType:
+        if value is None:
+            return pa.null()
+        for kind, arrow in types:  # bool before int: a bool is an int too
+            if isinstance(value, kind):
+                return arrow
+        raise TypeError(f"metric {name}: value {value!r} of type {type(value).__name__} has no column type")
+
+    return pa.table(
+        {
+            name: pa.array([value], type=arrow_type(name, value), from_pandas=True)
+            for name, value in metrics.items()
+        }
+    )
 
 
 def write_run(
