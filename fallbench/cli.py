@@ -45,6 +45,8 @@ scenarios_app = typer.Typer(help="Check and export scenario files.", no_args_is_
 app.add_typer(run_app, name="run")
 app.add_typer(scenarios_app, name="scenarios")
 
+TIMESERIES_HELP = "How much of each run's time series to store: landing (every physics step about the first impact and each body group's first contact, 100 Hz elsewhere, quantised; ~55 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run)."
+
 
 def fail(message: str, code: int = 2) -> None:
     typer.echo(f"error: {message}", err=True)
@@ -214,6 +216,10 @@ def run_sweep_command(
         "--policy-param",
         help="NAME.KEY=VALUE (repeatable): a controller parameter set in every point's `policy_params`, e.g. onnx.model=my_policy.onnx.",
     ),
+    timeseries: str = typer.Option(
+        "landing",
+        help=TIMESERIES_HELP,
+    ),
 ) -> None:
     """Run every (scenario point, seed, pre-impact strategy, policy) not yet in the store, then print a summary.
 
@@ -223,6 +229,7 @@ def run_sweep_command(
     from fallbench.results.runner import expand, run_sweep
 
     _check_backend(backend, scheduler)
+    _check_timeseries(timeseries)
     points = _with_params(_load(files or SHIPPED, _robot(robot)), policy_param)
     strategies = _strategies(pre_impact)
     _check_strategies(points, strategies)
@@ -234,6 +241,7 @@ def run_sweep_command(
         progress=progress and sys.stderr.isatty(),
         backend=backend,
         scheduler=scheduler,
+        timeseries=timeseries,
     )
     typer.echo(_sweep_summary(table, reports).round(3).to_string())
     failed = table[table.status != "ok"]
@@ -244,6 +252,13 @@ def run_sweep_command(
         typer.echo(f"  {row.status}: {row.pre_impact}/{row.policy} {row.point}: {row.error}", err=True)
     if strict and len(failed):
         raise typer.Exit(1)
+
+
+def _check_timeseries(mode: str) -> None:
+    from fallbench.results.series import TIMESERIES_MODES
+
+    if mode not in TIMESERIES_MODES:
+        fail(f"--timeseries: unknown mode {mode!r}; known: {', '.join(TIMESERIES_MODES)}")
 
 
 def _check_backend(backend: str, scheduler: str | None) -> None:
@@ -282,15 +297,20 @@ def run_one_command(
         "none", help="Pre-impact strategy (none, reshape, direction, or a plugin's)."
     ),
     results: Path = typer.Option(Path("results"), help="Results store folder."),
+    timeseries: str = typer.Option(
+        "landing",
+        help=TIMESERIES_HELP,
+    ),
 ) -> None:
     """Run one case, store it, and print its metrics."""
     from fallbench.registry import run_policy
     from fallbench.results.runner import RunSpec, execute
 
+    _check_timeseries(timeseries)
     chosen = _select(_load([file]), point, file)
     strategy = _strategies(pre_impact)[0]
     _check_strategies([chosen], [strategy])
-    row = execute(RunSpec(chosen, run_policy(strategy, _policies(policy)[0]), strategy), results)
+    row = execute(RunSpec(chosen, run_policy(strategy, _policies(policy)[0]), strategy), results, timeseries)
     width = max(len(k) for k in row)
     for key, value in row.items():
         typer.echo(f"{key:<{width}}  {value:.4g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
@@ -504,6 +524,81 @@ def render_command(
     except (RenderUnavailable, ReplayMissing) as exc:
         fail(str(exc))
     typer.echo(f"wrote {path}")
+
+
+def _selected_runs(results: Path, where: str | None, option: str):
+    """The store's runs (consolidated first), those matching `where` (a pandas query) if given."""
+    from fallbench.results.store import consolidate, load_metrics
+
+    if (results / "runs").is_dir():
+        consolidate(results)
+    try:
+        table = load_metrics(results)
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    if table.empty:
+        fail(f"{results}: the results store has no runs")
+    if where:
+        try:
+            table = table.query(where)
+        except Exception as exc:  # pandas raises many types for a bad expression
+            fail(f"{option} {where!r}: {exc}")
+    return table
+
+
+@app.command("compare")
+def compare_command(
+    store_a: Path = typer.Argument(..., metavar="A", help="Results store A (before)."),
+    store_b: Path | None = typer.Argument(
+        None, metavar="[B]", help="Results store B (after); default: A, with --where-a and --where-b."
+    ),
+    where_a: str | None = typer.Option(
+        None,
+        help="pandas query selecting A's runs, as `fallbench results --where`, e.g. \"`version:code` == 'abc123'\".",
+    ),
+    where_b: str | None = typer.Option(None, help="pandas query selecting B's runs."),
+    key: str = typer.Option(
+        "robot,scenario,point,seed,pre_impact,policy",
+        help="Comma-separated columns on which a run of A pairs with a run of B.",
+    ),
+    out: Path | None = typer.Option(
+        None, help="Folder for compare.md, compare.csv and compare.png (default: print only)."
+    ),
+    fail_on: str = typer.Option("none", help="worse: exit 1 if any change is worse; none: exit 0."),
+) -> None:
+    """Paired change B - A of each headline damage measure per robot, family, strategy and policy.
+
+    Runs pair when they share the --key columns and both ran ok. Per group: the median change
+    (fell, joint_limit_hits: the mean) with a 95 % bootstrap interval, and a verdict: better,
+    worse (the interval clear of 0; lower is better except knee_limit_margin), no clear change,
+    or no change (every paired difference 0).
+    """
+    from fallbench.report.compare import compare, display_table, summary_line, write
+
+    if fail_on not in ("none", "worse"):
+        fail(f"--fail-on: unknown value {fail_on!r}; known: none, worse")
+    if store_b is None and not (where_a or where_b):
+        fail("compare needs two stores (A B), or one store with --where-a and --where-b")
+    runs_a = _selected_runs(store_a, where_a, "--where-a")
+    runs_b = _selected_runs(store_b or store_a, where_b, "--where-b")
+    try:
+        comparison = compare(runs_a, runs_b, tuple(k.strip() for k in key.split(",") if k.strip()))
+    except ValueError as exc:
+        fail(f"--key: {exc}")
+    if comparison.pairs == 0:
+        fail(f"A and B share no run that ran ok in both (paired on {key})")
+    typer.echo(display_table(comparison).to_string(index=False))
+    typer.echo("\n" + summary_line(comparison))
+    if out is not None:
+        names = [
+            f"{store_a}" + (f" where {where_a}" if where_a else ""),
+            f"{store_b or store_a}" + (f" where {where_b}" if where_b else ""),
+        ]
+        paths = write(comparison, out, *names)
+        typer.echo(f"wrote {', '.join(str(p) for p in paths)}")
+    if fail_on == "worse" and len(comparison.worse):
+        typer.echo(f"{len(comparison.worse)} changes are worse (--fail-on worse)", err=True)
+        raise typer.Exit(1)
 
 
 @app.command("results")

@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -94,7 +93,7 @@ def test_filmstrip_and_video_where_gl_works(stored: tuple[Path, str], tmp_path: 
     except RenderUnavailable as exc:
         pytest.skip(str(exc))
     assert strip.name == f"filmstrip_{run_id}.png" and strip.stat().st_size > 20_000
-    row = pd.read_parquet(store.run_dir(results, run_id) / store.METRICS).iloc[0]
+    row = store.load_run_row(results, run_id)
     captions = [c for _, c in key_moments(row, 0.299)]
     assert (
         captions[0] == "fall detected"

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import mujoco
 import pandas as pd
-import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
+from fallbench.results import store
 from fallbench.results.store import load_metrics
 from fallbench.robots import get_robot
 
@@ -102,7 +102,7 @@ def test_killed_sweep_resumes_without_duplicates(tmp_path: Path, sweep) -> None:
         assert 0 < len(done_before) < 12
         for folder in (results / "runs").iterdir():  # every complete folder is readable
             if not folder.name.startswith("."):
-                pq.read_table(folder / "metrics.parquet")
+                store.load_run_row(results, folder.name)
         result = sweep(path, results, policies=policies)
         assert result.exit_code == 0, result.output
         table = load_metrics(results)

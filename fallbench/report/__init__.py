@@ -50,6 +50,7 @@ def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) 
         & (runs.pre_impact == "none")
         & (runs.seed == 0)
     ]
+    ok = store.with_timeseries(results, ok)
     points = [(point, ok[ok.point == point]) for point in natural_sorted(ok.point.unique())]
     points = [(point, group) for point, group in points if group.policy.nunique() > 1]
     for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):

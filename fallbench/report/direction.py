@@ -365,6 +365,7 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
     rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
         "pre_impact"
     )
+    rows = store.with_timeseries(results, rows)
     if not {"none", "direction"} <= set(rows.index):
         return []
     chosen = rows.loc["direction"]

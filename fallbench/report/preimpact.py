@@ -208,6 +208,7 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
         "pre_impact"
     )
+    rows = store.with_timeseries(results, rows)
     if not {"none", "reshape"} <= set(rows.index):
         return []
     series = {s: store.load_timeseries(results, rows.loc[s, "run_id"]) for s in ("none", "reshape")}

@@ -66,14 +66,17 @@ def load_replay(results: Path, run_id: str) -> Replay:
     run_id = find_run(results, run_id)
     folder = store.run_dir(results, run_id)
     spec = YAML(typ="safe", pure=True).load((folder / "spec.yaml").read_text())
-    series = store.load_timeseries(results, run_id)
+    try:
+        series = store.load_timeseries(results, run_id)
+    except store.SeriesMissing as exc:
+        raise ReplayMissing(f"{exc}: run it again with --timeseries landing or full to render it") from None
     columns = sorted((c for c in series.columns if c.startswith("qpos:")), key=lambda c: int(c.split(":")[1]))
     if not columns:
         raise ReplayMissing(
             f"run {run_id} has no qpos in its time series (stored by an older fallbench): run it again to render it"
         )
     sampled = series[["t", *columns]].dropna()
-    row = pd.read_parquet(folder / store.METRICS).iloc[0]
+    row = store.load_run_row(results, run_id)
     label = f"{row.pre_impact} + {row.policy}, {row.point}"
     return Replay(
         run_id,

@@ -42,6 +42,7 @@ from fallbench.analysis.metrics import compute_metrics
 from fallbench.dynamics.dense_qp import QP_SOLVERS
 from fallbench.registry import load, simulate_named
 from fallbench.results.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
+from fallbench.results.series import DEFAULT_TIMESERIES, TIMESERIES_MODES
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Scenario, ScenarioPoint
 from fallbench.sim.servo import ServoCommand, write_servo
 from fallbench.sim.world import build_world, initial_state
@@ -233,21 +234,34 @@ def sweep_figures(specs: list[RunSpec]) -> dict[str, float]:
                 warm = [replace(specs[0], point=_with_seed(specs[0].point, 10_000 + i)) for i in range(jobs)]
                 list(parallel(delayed(_simulate_measured)(s) for s in warm))
                 figures["worker_warmup_s"] = time.perf_counter() - started
-            started = time.perf_counter()
+            started, other_modes_s = time.perf_counter(), 0.0
             for outcome, pid, peak in parallel(delayed(_simulate_measured)(s) for s in specs):
                 store_outcome(results, outcome)
                 if jobs > 1:
                     peaks[pid] = max(peaks.get(pid, 0.0), peak)
-            figures[f"sweep_runs_per_s_{jobs}job"] = len(specs) / (time.perf_counter() - started)
-        stored = [
-            sum(f.stat().st_size for f in run.iterdir())
-            for run in (Path(folder) / "jobs1" / "runs").iterdir()
-        ]
-        figures["bytes_per_run"] = float(np.mean(stored))
+                else:  # the same runs stored with the other time-series modes (not timed)
+                    other_modes_s -= time.perf_counter()
+                    for mode in TIMESERIES_MODES[1:]:
+                        store_outcome(Path(folder) / mode, outcome, mode)
+                    other_modes_s += time.perf_counter()
+            elapsed = time.perf_counter() - started - other_modes_s
+            figures[f"sweep_runs_per_s_{jobs}job"] = len(specs) / elapsed
+        for mode in TIMESERIES_MODES:
+            figures[f"bytes_per_run_{mode}"] = _bytes_per_run(
+                Path(folder) / ("jobs1" if mode == "landing" else mode)
+            )
+        figures["bytes_per_run"] = figures[f"bytes_per_run_{DEFAULT_TIMESERIES}"]
     figures["sweep_speedup"] = figures["sweep_runs_per_s_2job"] / figures["sweep_runs_per_s_1job"]
     figures["worker_peak_rss_mb"] = max(peaks.values())
     figures["main_peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return figures
+
+
+def _bytes_per_run(results: Path) -> float:
+    """Mean bytes of a run's folder (spec, metrics, time series; file sizes, not disk blocks)."""
+    return float(
+        np.mean([sum(f.stat().st_size for f in run.iterdir()) for run in (results / "runs").iterdir()])
+    )
 
 
 def sweep_specs(point: ScenarioPoint, runs: int, pre_impact: str) -> list[RunSpec]:
@@ -614,7 +628,13 @@ def _sweep_lines(figures: dict[str, Any]) -> list[str]:
         f"2 jobs {figures['sweep_runs_per_s_2job']:.2f} runs/s, speedup {figures['sweep_speedup']:.2f}x "
         f"(worker start and model compile {figures['worker_warmup_s']:.1f} s, not counted). Peak RSS: workers "
         f"{figures['worker_peak_rss_mb']:.0f} MB, main process {figures['main_peak_rss_mb']:.0f} MB. "
-        f"Stored per run: {figures['bytes_per_run'] / 1024:.0f} KiB.",
+        f"Stored per run: {figures['bytes_per_run'] / 1024:.0f} KiB"
+        + (
+            f" (--timeseries landing; full {figures['bytes_per_run_full'] / 1024:.0f} KiB, "
+            f"none {figures['bytes_per_run_none'] / 1024:.1f} KiB)."
+            if "bytes_per_run_full" in figures
+            else "."
+        ),
         "",
     ]
     for runs in sorted(int(k.rsplit("_", 1)[1]) for k in figures if k.startswith("e2e_speedup_")):

@@ -142,8 +142,9 @@ class Outcome:
     series: pd.DataFrame | None
 
 
-def simulate(spec: RunSpec) -> Outcome:
-    """Run one case and compute its metrics. Never raises for a failing simulation."""
+def simulate(spec: RunSpec, keep_series: bool = True) -> Outcome:
+    """Run one case and compute its metrics (and, with `keep_series`, its time series); never
+    raises for a failing simulation. The metrics come from the recording, never from the series."""
     from fallbench.analysis.metrics import compute_metrics, timeseries
     from fallbench.registry import simulate_named
 
@@ -155,7 +156,7 @@ def simulate(spec: RunSpec) -> Outcome:
         row["status"], row["error"] = recording.status, recording.error
         with np.errstate(all="ignore"):  # a diverged recording holds NaNs; its metrics may too
             row.update(compute_metrics(recording))
-            series = timeseries(recording)
+            series = timeseries(recording) if keep_series else None
     except Exception as exc:  # a failing run is stored, not raised: the sweep goes on
         row["status"] = "error"
         where = traceback.extract_tb(exc.__traceback__)[-1]
@@ -164,7 +165,9 @@ def simulate(spec: RunSpec) -> Outcome:
     return Outcome(spec, row, series)
 
 
-def store_outcome(results: Path, outcome: Outcome) -> dict[str, Any]:
+def store_outcome(
+    results: Path, outcome: Outcome, timeseries: str = store.DEFAULT_TIMESERIES
+) -> dict[str, Any]:
     spec = outcome.spec
     store.write_run(
         results,
@@ -172,13 +175,15 @@ def store_outcome(results: Path, outcome: Outcome) -> dict[str, Any]:
         spec.resolved() | {"point": spec.point.label},
         outcome.row,
         outcome.series,
+        timeseries,
     )
     return outcome.row
 
 
-def execute(spec: RunSpec, results: Path) -> dict[str, Any]:
-    """Run one case in this process, store it, return its metric row."""
-    return store_outcome(results, simulate(spec))
+def execute(spec: RunSpec, results: Path, timeseries: str = store.DEFAULT_TIMESERIES) -> dict[str, Any]:
+    """Run one case in this process, store it (its time series as `timeseries` says), return its
+    metric row."""
+    return store_outcome(results, simulate(spec, keep_series=timeseries != "none"), timeseries)
 
 
 BACKENDS = ("auto", "fork", "loky", "dask")
@@ -238,26 +243,32 @@ def parallel_backend(backend: str, jobs: int, scheduler: str | None = None) -> I
 
 
 def stored_rows(
-    todo: list[RunSpec], results: Path, backend: str, jobs: int, scheduler: str | None = None
+    todo: list[RunSpec],
+    results: Path,
+    backend: str,
+    jobs: int,
+    scheduler: str | None = None,
+    timeseries: str = store.DEFAULT_TIMESERIES,
 ) -> Iterator[dict[str, Any]]:
     """Run and store every spec of `todo` (in this order where the backend keeps it); yield each
     run's metric row as it is stored."""
     if backend == "sequential":
         for spec in todo:
-            yield execute(spec, results)
+            yield execute(spec, results, timeseries)
     elif backend == "fork":
         prepare(todo)
         # Ctrl-C reaches this process only; leaving the `with` terminates the workers
         with multiprocessing.get_context("fork").Pool(
             jobs, initializer=signal.signal, initargs=(signal.SIGINT, signal.SIG_IGN)
         ) as pool:
-            yield from pool.imap_unordered(partial(execute, results=results), todo)
+            yield from pool.imap_unordered(partial(execute, results=results, timeseries=timeseries), todo)
     else:
         from joblib import delayed
 
         with parallel_backend(backend, jobs, scheduler) as parallel:
-            for outcome in parallel(delayed(simulate)(s) for s in todo):
-                yield store_outcome(results, outcome)
+            keep = timeseries != "none"
+            for outcome in parallel(delayed(simulate)(s, keep) for s in todo):
+                yield store_outcome(results, outcome, timeseries)
 
 
 def expected_cost(spec: RunSpec) -> float:
@@ -275,8 +286,10 @@ def run_sweep(
     progress: bool = True,
     backend: str = "auto",
     scheduler: str | None = None,
+    timeseries: str = store.DEFAULT_TIMESERIES,
 ) -> pd.DataFrame:
-    """Run the specs not yet stored, add them to the consolidated table, return the specs' rows."""
+    """Run the specs not yet stored (keeping their time series as `timeseries` says: landing, full
+    or none), add them to the consolidated table, return the specs' rows."""
     from tqdm import tqdm
 
     results.mkdir(parents=True, exist_ok=True)
@@ -285,7 +298,9 @@ def run_sweep(
         (s for rid, s in unique.items() if not store.is_done(results, rid)), key=expected_cost, reverse=True
     )
     if todo:
-        rows = stored_rows(todo, results, choose_backend(backend, jobs, len(todo)), jobs, scheduler)
+        rows = stored_rows(
+            todo, results, choose_backend(backend, jobs, len(todo)), jobs, scheduler, timeseries
+        )
         bar = tqdm(
             rows,
             total=len(todo),

@@ -1,8 +1,10 @@
 """Results store: one folder per run, written atomically, and a consolidated metrics table in parts.
 
-results/runs/<run_id>/{spec.yaml, metrics.parquet, timeseries.parquet} is written into a temporary
-folder, fsynced, then renamed: a run folder is either complete or absent, so an interrupted sweep
-resumes by skipping the folders that exist.
+results/runs/<run_id>/{spec.yaml, metrics.json, series.parquet} (layout LAYOUT_VERSION) is written
+into a temporary folder, fsynced, then renamed: a run folder is either complete or absent, so an
+interrupted sweep resumes by skipping the folders that exist. `metrics.json` holds the layout, the
+time-series mode (`results.series`) and the metric row; runs of layout 1 (older stores) hold
+{spec.yaml, metrics.parquet, timeseries.parquet} and are read as they are.
 
 results/metrics/part-*.parquet hold every run's metric row, each run in exactly one part. A
 consolidation appends one part with the runs not yet in any part (it reads only their folders:
@@ -33,15 +35,22 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from fallbench.results.series import DEFAULT_TIMESERIES, TIMESERIES_MODES, landing_windows
+from fallbench.results.series import FILE as SERIES
+from fallbench.results.series import encode as encode_series
 from fallbench.scenario import canonical_json
 
 if TYPE_CHECKING:  # pandas, pyarrow and DuckDB load only when the store is used (start-up time)
     import pandas as pd
     import pyarrow as pa
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 1  # of the metric row (its `schema_version` column)
+# of a run's folder: 1 = metrics.parquet + timeseries.parquet, 2 = metrics.json + series.parquet
+LAYOUT_VERSION = 2
 RUNS = "runs"
-METRICS = "metrics.parquet"  # one run's row, in its folder
+METRICS_JSON = "metrics.json"  # one run's layout, time-series mode and metric row, in its folder
+METRICS = "metrics.parquet"  # one run's row, in its folder (layout 1)
+LEGACY_SERIES = "timeseries.parquet"  # layout 1: every physics step, float32, qpos NaN off the replay rows
 TABLE = "metrics"  # folder of the consolidated parts
 LEGACY_TABLE = "metrics.parquet"  # results/metrics.parquet, rebuilt whole by older versions
 COMMON_METADATA = "_common_metadata"
@@ -63,7 +72,12 @@ def run_dir(results: Path, rid: str) -> Path:
 
 
 def is_done(results: Path, rid: str) -> bool:
-    return (run_dir(results, rid) / METRICS).exists()
+    folder = run_dir(results, rid)
+    return (folder / METRICS_JSON).exists() or (folder / METRICS).exists()
+
+
+class SeriesMissing(FileNotFoundError):
+    """The run is stored without a time series (`--timeseries none`)."""
 
 
 def _fsync_write(path: Path, data: bytes) -> None:
@@ -73,19 +87,62 @@ def _fsync_write(path: Path, data: bytes) -> None:
         os.fsync(handle.fileno())
 
 
-def _parquet_bytes(frame: pd.DataFrame) -> bytes:
-    buffer = io.BytesIO()
-    frame.to_parquet(buffer, index=False)
-    return buffer.getvalue()
+def _json_scalar(value: Any) -> Any:
+    """NumPy scalars as the Python values they stand for (float64 is a float already)."""
+    import numpy as np
+
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, np.integer) and value.dtype == np.int64:
+        return int(value)
+    raise TypeError(f"metric value {value!r} of type {type(value).__name__} has no exact JSON form")
+
+
+def metrics_json(metrics: dict[str, Any], timeseries: str) -> bytes:
+    """`metrics.json`: the row as JSON (floats in their shortest exact form, NaN as NaN), so that
+    it reads back into the same Arrow types and bits as the row itself (`row_table`)."""
+    envelope = {"layout": LAYOUT_VERSION, "timeseries": timeseries, "metrics": metrics}
+    return json.dumps(envelope, default=_json_scalar, separators=(",", ":")).encode()
+
+
+def row_table(metrics: dict[str, Any]) -> pa.Table:
+    """One metric row as an Arrow table, as layout 1 stored it through pandas: bool, int64,
+    double (NaN as null), large_string, null for None (~1 ms a row; through pandas ~16 ms)."""
+    import pyarrow as pa
+
+    types = ((bool, pa.bool_()), (int, pa.int64()), (float, pa.float64()), (str, pa.large_string()))
+
+    def arrow_type(name: str, value: Any) -> pa.DataType:
+        if value is None:
+            return pa.null()
+        for kind, arrow in types:  # bool before int: a bool is an int too
+            if isinstance(value, kind):
+                return arrow
+        raise TypeError(f"metric {name}: value {value!r} of type {type(value).__name__} has no column type")
+
+    return pa.table(
+        {
+            name: pa.array([value], type=arrow_type(name, value), from_pandas=True)
+            for name, value in metrics.items()
+        }
+    )
 
 
 def write_run(
-    results: Path, rid: str, spec: dict[str, Any], metrics: dict[str, Any], series: pd.DataFrame | None
+    results: Path,
+    rid: str,
+    spec: dict[str, Any],
+    metrics: dict[str, Any],
+    series: pd.DataFrame | None,
+    timeseries: str = DEFAULT_TIMESERIES,
 ) -> None:
-    """Write one run's folder atomically; a run already stored is left as it is."""
-    import pandas as pd
+    """Write one run's folder atomically; a run already stored is left as it is. `timeseries` is
+    how much of the series to keep (`results.series`: landing, full or none)."""
     from ruamel.yaml import YAML
 
+    if timeseries not in TIMESERIES_MODES:
+        raise ValueError(f"unknown time-series mode {timeseries!r}; known: {', '.join(TIMESERIES_MODES)}")
+    kept = timeseries if series is not None else "none"
     final = run_dir(results, rid)
     if final.exists():
         return
@@ -96,9 +153,10 @@ def write_run(
         text = io.StringIO()
         YAML(typ="safe", pure=True).dump(spec, text)
         _fsync_write(tmp / "spec.yaml", text.getvalue().encode())
-        if series is not None:
-            _fsync_write(tmp / "timeseries.parquet", _parquet_bytes(series))
-        _fsync_write(tmp / METRICS, _parquet_bytes(pd.DataFrame([metrics])))
+        if kept != "none":
+            data = encode_series(series, kept, landing_windows(metrics), LAYOUT_VERSION)
+            _fsync_write(tmp / SERIES, data)
+        _fsync_write(tmp / METRICS_JSON, metrics_json(metrics, kept))
         os.rename(tmp, final)
     except OSError:
         if final.exists():  # another worker stored the same run first
@@ -258,10 +316,40 @@ def _compact(table: Path) -> None:
         _merge(table, full)
 
 
+def _run_row(results: Path, rid: str) -> pa.Table:
+    """One stored run's metric row, of either layout."""
+    import pyarrow.parquet as pq
+
+    folder = run_dir(results, rid)
+    if (folder / METRICS_JSON).exists():
+        stored = json.loads((folder / METRICS_JSON).read_bytes())
+        if stored["layout"] > LAYOUT_VERSION:
+            raise ValueError(
+                f"{folder}: stored by a newer fallbench (layout {stored['layout']}, this one reads up to {LAYOUT_VERSION})"
+            )
+        return row_table(stored["metrics"])
+    return pq.read_table(folder / METRICS)
+
+
+def load_run_row(results: Path, rid: str) -> pd.Series:
+    """One stored run's metric row, from its folder."""
+    return _run_row(results, rid).to_pandas().iloc[0]
+
+
+def run_layout(results: Path, rid: str) -> tuple[int, str]:
+    """(layout version, time-series mode) of a stored run; layout 1 kept every physics step."""
+    folder = run_dir(results, rid)
+    if (folder / METRICS_JSON).exists():
+        about = json.loads((folder / METRICS_JSON).read_bytes())
+        return int(about["layout"]), str(about["timeseries"])
+    if (folder / METRICS).exists():
+        return 1, "full" if (folder / LEGACY_SERIES).exists() else "none"
+    raise FileNotFoundError(f"{folder}: no stored run")
+
+
 def consolidate(results: Path, full: bool = False) -> int:
     """Add the stored runs that no part holds yet as one new part (or, with `full`, rebuild every
     part from the run folders); returns the number of rows added."""
-    import pyarrow.parquet as pq
 
     table = results / TABLE
     table.mkdir(parents=True, exist_ok=True)
@@ -274,7 +362,7 @@ def consolidate(results: Path, full: bool = False) -> int:
         stored = _stored_ids(_parts(table))
         new = sorted(set(_run_names(results)) - stored)
         if new:
-            _add_part(table, _concat([pq.read_table(run_dir(results, rid) / METRICS) for rid in new]))
+            _add_part(table, _concat([_run_row(results, rid) for rid in new]))
         (results / LEGACY_TABLE).unlink(missing_ok=True)  # the single-file table of older versions, now stale
     return len(new)
 
@@ -387,7 +475,29 @@ def load_metrics(results: Path, **filters: list[str] | None) -> pd.DataFrame:
         return _frame(connection.sql(f"SELECT * FROM runs{where} ORDER BY run_id"))
 
 
-def load_timeseries(results: Path, rid: str) -> pd.DataFrame:
-    import pandas as pd
+def has_timeseries(results: Path, rid: str) -> bool:
+    folder = run_dir(results, rid)
+    return (folder / SERIES).exists() or (folder / LEGACY_SERIES).exists()
 
-    return pd.read_parquet(run_dir(results, rid) / "timeseries.parquet")
+
+def with_timeseries(results: Path, runs: pd.DataFrame) -> pd.DataFrame:
+    """The runs (rows with `run_id`) whose time series is stored (not `--timeseries none`)."""
+    return runs[runs.run_id.map(lambda rid: has_timeseries(results, rid)).astype(bool)]
+
+
+def load_timeseries(results: Path, rid: str) -> pd.DataFrame:
+    """A run's stored time series as float32 columns (`t` in s first), of either layout; raises
+    SeriesMissing for a run stored with `--timeseries none`."""
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    from fallbench.results.series import decode
+
+    folder = run_dir(results, rid)
+    if (folder / SERIES).exists():
+        return decode(pq.read_table(folder / SERIES))
+    if (folder / LEGACY_SERIES).exists():
+        return pd.read_parquet(folder / LEGACY_SERIES)
+    if is_done(results, rid):
+        raise SeriesMissing(f"run {rid} was stored without its time series (--timeseries none)")
+    raise FileNotFoundError(f"{folder}: no stored run")
