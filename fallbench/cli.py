@@ -386,21 +386,28 @@ def bench_command(
 def report_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     out: Path = typer.Option(
-        Path("reports"), help="Folder for figures (PNG, SVG), index.html and summary.md."
+        Path("reports"), help="Folder for figures (PNG; SVG with --svg), index.html and summary.md."
     ),
     progress: bool = typer.Option(True, help="Show a progress bar."),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Processes drawing figures in parallel."),
+    svg: bool = typer.Option(False, "--svg", help="Also write every figure as SVG (vector) next to its PNG."),
 ) -> None:
-    """Draw the papers' figures per drop/push point, sweep comparisons and the claims table."""
-    from fallbench.report import build_report
+    """Answer first (forest plots, rankings), then per family its representative falls and the papers'
+    figures per point, sweep comparisons and the claims; figures whose runs did not change are kept."""
+    from fallbench.report import Options, build_report
     from fallbench.results.store import consolidate
 
     if (results / "runs").is_dir():
         consolidate(results)  # runs stored by `run one` or an interrupted sweep
+    options = Options(jobs=jobs, svg=svg)
     try:
-        paths = build_report(results, out, progress=progress and sys.stderr.isatty())
+        paths = build_report(results, out, progress=progress and sys.stderr.isatty(), options=options)
     except FileNotFoundError as exc:
         fail(str(exc))
-    typer.echo(f"wrote {len(paths)} files; open {out}/index.html (summary in {out}/summary.md)")
+    typer.echo(
+        f"wrote {len(paths)} files ({options.drawn} figures drawn, {options.cached} unchanged); "
+        f"open {out}/index.html (summary in {out}/summary.md)"
+    )
 
 
 @app.command("render")
