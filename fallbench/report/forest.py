@@ -29,7 +29,7 @@ COLUMNS = ["pre_impact", "policy", "measure", "label", "unit", "value", "low", "
 def _unit(label: str) -> str:
     """The unit in a measure's label, e.g. "N" from "head peak force (N)"; counts and fractions:
     what they count."""
-    return label[label.rfind("(") + 1 : -1] if label.endswith(")") else ""
+    return label[label.rfind("(") + 1 : -1] if label.endswith(")") else "count"
 
 
 def paired_changes(runs: pd.DataFrame, arms: list[tuple[str, str]] | None = None) -> pd.DataFrame:
@@ -83,7 +83,7 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     fig, axes = plt.subplots(
         1,
         len(measures),
-        figsize=(2.3 * len(measures) + 1.6, 0.42 * len(arms) + 1.5),
+        figsize=(1.45 * len(measures) + 1.9, 0.36 * len(arms) + 1.6),
         sharey=True,
         squeeze=False,
     )
@@ -106,16 +106,18 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
                 markeredgecolor="black",
                 markeredgewidth=0.6,
             )
-        better = "less damage: left" if lower_is_better.get(measure, True) else "less damage: right"
-        reference = f"none+stiff {first.reference:.3g}" if not np.isnan(first.reference) else ""
-        ax.set_title(f"{first.label.split(' (')[0]}\n({first.unit}; {reference})", fontsize=8)
-        ax.set_xlabel(f"change ({better})", fontsize=7)
-        ax.tick_params(labelsize=7)
+        better = "<- less damage" if lower_is_better.get(measure, True) else "less damage ->"
+        reference = f"ref. {first.reference:.3g}" if not np.isnan(first.reference) else ""
+        ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}; {reference}", fontsize=8.5)
+        ax.set_xlabel(better, fontsize=8)
+        ax.tick_params(labelsize=7.5)
+        for row in y[1::2]:
+            ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)
         ax.grid(alpha=0.3, axis="x")
     pairs = changes.groupby(["pre_impact", "policy"], sort=False).pairs.max()
-    axes[0, 0].set_yticks(y, [f"{s} + {p} (n={int(pairs[(s, p)])})" for s, p in arms], fontsize=8)
+    axes[0, 0].set_yticks(y, [f"{s} + {p} (n={int(pairs[(s, p)])})" for s, p in arms], fontsize=9)
     axes[0, 0].set_ylim(-0.7, len(arms) - 0.3)
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(title, fontsize=10.5)
     return _save(fig, out, stem)
 
 
