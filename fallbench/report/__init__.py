@@ -172,7 +172,8 @@ def _summary_figure_jobs(runs: pd.DataFrame, out: Path) -> list[Figure]:
         params = [c for c in group.columns if c.startswith("param:") and group[c].notna().any()]
         if params:
             jobs.append(Figure(f"sweeps:{robot}:{family}", parameter_figures, (group[keep + params], out)))
-    jobs.append(Figure("preimpact:first_impact", first_impact_figure, (runs, out)))
+    if "first_impact_group" in runs:
+        jobs.append(Figure("preimpact:first_impact", first_impact_figure, (runs, out)))
     for sweep in SWEEPS:
         swept = sensitivity_runs(runs, sweep)
         if len(swept):

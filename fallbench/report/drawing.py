@@ -161,6 +161,8 @@ def _draw_one(figure: Figure, vector: bool) -> Outcome:
         drawn = figure.draw(*figure.args)
     except FigureSkipped as exc:
         return [], str(exc), None
+    except FileNotFoundError as exc:  # a run stored without its time series (or since deleted)
+        return [], f"{figure.name}: skipped, {exc.filename or exc} is missing", None
     if isinstance(drawn, tuple):
         return list(drawn[0]), "", drawn[1]
     return list(drawn), "", None
