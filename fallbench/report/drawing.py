@@ -28,6 +28,7 @@ from typing import Any
 
 import pandas as pd
 
+from fallbench.report.figures import FigureSkipped, set_vector
 from fallbench.results import store
 
 CACHE_FILE = ".figure-cache.json"
@@ -57,10 +58,6 @@ class Drawn:
     payloads: dict[str, Any] = field(default_factory=dict)  # what a job returned besides its files
     drawn: int = 0
     cached: int = 0
-
-
-class FigureSkipped(RuntimeError):
-    """A figure that cannot be drawn (no OpenGL context, no replay): its message is the note."""
 
 
 @cache
@@ -154,9 +151,7 @@ Outcome = tuple[list[Path], str, Any]  # files, note ("" or why the figure was s
 
 def _draw_one(figure: Figure, vector: bool) -> Outcome:
     """In a worker: draw one figure."""
-    from fallbench.report import figures as figure_files
-
-    figure_files.set_vector(vector)
+    set_vector(vector)
     try:
         drawn = figure.draw(*figure.args)
     except FigureSkipped as exc:

@@ -20,6 +20,10 @@ DPI = 110
 _VECTOR = [False]  # whether `_save` also writes an SVG (`fallbench report --svg`); set per process
 
 
+class FigureSkipped(RuntimeError):
+    """A figure that cannot be drawn (no OpenGL context, no replay): its message is the note."""
+
+
 def set_vector(vector: bool) -> None:
     """Write an SVG next to each PNG from now on (in this process), or not."""
     _VECTOR[0] = vector
@@ -204,7 +208,6 @@ def point_stem(point: str, robot: str) -> str:
 
 def draw_paper_figures(rows: pd.DataFrame, results: Path, out: Path, point: str) -> list[Path]:
     """Figs. 6a, 6b, 4 (and 5 with `adaptive_qp`) of one point from its runs' time series."""
-    from fallbench.report.drawing import FigureSkipped
     from fallbench.results import store
 
     robot = str(rows.robot.iloc[0]) if "robot" in rows else DEFAULT_ROBOT

@@ -1,7 +1,7 @@
 """Which falls the report shows as filmstrips, chosen by the data, not by scenario names.
 
 A run's **damage** is a number in [0, 1] within its robot and scenario family: the mean, over the
-family's damage measures (`ranking.measures_for`: landing IMU z peak, head and torso peak forces,
+family's damage measures (`measures_for`: landing IMU z peak, head and torso peak forces,
 knee margin, joints past a limit, vulnerable parts hit, fell), of the run's percentile rank among
 the family's successful runs on that measure, oriented so that 1 is the most damage (the lowest
 knee margin, the highest peaks and counts, a fall). Ties share their mean rank; a measure the run
@@ -19,8 +19,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from fallbench.report import ranking
-from fallbench.report.drawing import Figure, FigureSkipped
+from fallbench.report.drawing import Figure
+from fallbench.report.figures import FigureSkipped
+from fallbench.report.ranking import arm_order, families, measures_for, robots
 from fallbench.report.render import RenderUnavailable, ReplayMissing, filmstrip
 
 
@@ -42,7 +43,7 @@ def damage(family: pd.DataFrame) -> pd.Series:
     """Each successful run's damage in [0, 1] (see the module's docstring), indexed like `family`."""
     ok = family[family.status == "ok"]
     ranks = []
-    for measure in ranking.measures_for(ok):
+    for measure in measures_for(ok):
         values = ok[measure.column].astype(float)
         if values.notna().sum() == 0:
             continue
@@ -58,10 +59,10 @@ def picks(runs: pd.DataFrame) -> list[Pick]:
     """Per robot and family (the report's grouping), per (strategy, policy) in ranking order: the
     typical and the worst fall."""
     chosen: list[Pick] = []
-    for robot, robot_runs in ranking.robots(runs).items():
-        for family in ranking.families(robot_runs):
+    for robot, robot_runs in robots(runs).items():
+        for family in families(robot_runs):
             group = robot_runs[robot_runs.scenario == family]
-            chosen += family_picks(robot, family, group, ranking.arm_order(group))
+            chosen += family_picks(robot, family, group, arm_order(group))
     return chosen
 
 

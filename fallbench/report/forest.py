@@ -16,8 +16,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from fallbench.report import ranking
 from fallbench.report.figures import _save
+from fallbench.report.ranking import DAMAGE_MEASURES, REFERENCE, arm_order, measures_for
 from fallbench.report.stats import bootstrap
 from fallbench.report.style import colour
 
@@ -38,14 +38,14 @@ def paired_changes(runs: pd.DataFrame, arms: list[tuple[str, str]] | None = None
     reference's median on those pairs; arms in ranking order (best first) unless given."""
     ok = runs[runs.status == "ok"]
     keys = [k for k in PAIR_KEYS if k in ok]
-    strategy, policy = ranking.REFERENCE
+    strategy, policy = REFERENCE
     reference = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].drop_duplicates(keys).set_index(keys)
     if reference.empty:
         return pd.DataFrame(columns=COLUMNS)
-    measures = ranking.measures_for(ok)
+    measures = measures_for(ok)
     rows = []
-    for arm in arms if arms is not None else ranking.arm_order(runs):
-        if arm == ranking.REFERENCE:
+    for arm in arms if arms is not None else arm_order(runs):
+        if arm == REFERENCE:
             continue
         mine = ok[(ok.pre_impact == arm[0]) & (ok.policy == arm[1])].drop_duplicates(keys).set_index(keys)
         both = mine.index.intersection(reference.index)
@@ -79,7 +79,7 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
         return []
     arms = list(dict.fromkeys(zip(changes.pre_impact, changes.policy)))
     measures = list(dict.fromkeys(changes.measure))
-    lower_is_better = {m.column: m.lower_is_better for m in ranking.DAMAGE_MEASURES}
+    lower_is_better = {m.column: m.lower_is_better for m in DAMAGE_MEASURES}
     fig, axes = plt.subplots(
         1,
         len(measures),
