@@ -344,8 +344,12 @@ def bench_command(
     e2e_repeats: int = typer.Option(
         1, min=1, help="Pairs (1 job, 2 jobs) per whole-command sweep size (medians)."
     ),
+    report_store: Path | None = typer.Option(
+        None, help="A results store whose `fallbench report` is timed, cold and warm (e.g. the main job's)."
+    ),
+    report_jobs: int = typer.Option(2, min=1, help="--jobs of the timed report."),
 ) -> None:
-    """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store.
+    """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store, the report.
 
     Prints and writes a table: pure-physics steps/s; per policy, episode time / pure physics and /
     its own physics time, controller cost per control step; adaptive_qp's QP model, build and solve
@@ -362,6 +366,8 @@ def bench_command(
         fail(f"--e2e-runs {e2e_runs!r}: expected comma-separated numbers of runs")
     if any(n < 4 or n > 100 or n % 4 for n in sizes):
         fail(f"--e2e-runs {e2e_runs!r}: each size must be a multiple of 4 between 4 and 100")
+    if report_store is not None and not (report_store / "metrics").is_dir():
+        fail(f"--report-store {report_store}: no results store here (run `fallbench run sweep` first)")
     figures = run_bench(
         chosen,
         _strategies(pre_impact)[0],
@@ -371,6 +377,8 @@ def bench_command(
         store_runs=store,
         e2e_runs=sizes,
         e2e_repeats=e2e_repeats,
+        report_store=report_store,
+        report_jobs=report_jobs,
     )
     table = markdown(figures)
     out.parent.mkdir(parents=True, exist_ok=True)
