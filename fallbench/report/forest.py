@@ -38,21 +38,25 @@ def paired_changes(runs: pd.DataFrame, arms: list[tuple[str, str]] | None = None
     reference's median on those pairs; arms in ranking order (best first) unless given."""
     ok = runs[runs.status == "ok"]
     keys = [k for k in PAIR_KEYS if k in ok]
+    measures = measures_for(ok)
+    columns = [m.column for m in measures]
     strategy, policy = REFERENCE
-    reference = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].drop_duplicates(keys).set_index(keys)
+    reference = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].drop_duplicates(keys)
     if reference.empty:
         return pd.DataFrame(columns=COLUMNS)
-    measures = measures_for(ok)
+    reference = reference[keys + columns]
     rows = []
     for arm in arms if arms is not None else arm_order(runs):
         if arm == REFERENCE:
             continue
-        mine = ok[(ok.pre_impact == arm[0]) & (ok.policy == arm[1])].drop_duplicates(keys).set_index(keys)
-        both = mine.index.intersection(reference.index)
+        mine = ok[(ok.pre_impact == arm[0]) & (ok.policy == arm[1])].drop_duplicates(keys)
+        pairs = mine[keys + columns].merge(reference, on=keys, suffixes=("", ":reference"))
         for measure in measures:
-            ours = mine.loc[both, measure.column].astype(float)
-            theirs = reference.loc[both, measure.column].astype(float)
-            estimate = bootstrap((ours - theirs).to_numpy(), measure.statistic)
+            ours = pairs[measure.column].astype(float).to_numpy()
+            theirs = pairs[f"{measure.column}:reference"].astype(float).to_numpy()
+            change = ours - theirs
+            estimate = bootstrap(change, measure.statistic)
+            paired = theirs[~np.isnan(change)]
             rows.append(
                 {
                     "pre_impact": arm[0],
@@ -64,9 +68,7 @@ def paired_changes(runs: pd.DataFrame, arms: list[tuple[str, str]] | None = None
                     "low": estimate.low,
                     "high": estimate.high,
                     "pairs": estimate.n,
-                    "reference": float(
-                        theirs[(ours - theirs).notna()].agg(measure.statistic) if estimate.n else np.nan
-                    ),
+                    "reference": float(getattr(np, measure.statistic)(paired)) if len(paired) else np.nan,
                 }
             )
     return pd.DataFrame(rows, columns=COLUMNS)

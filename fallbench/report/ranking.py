@@ -168,19 +168,20 @@ def relative_changes(runs: pd.DataFrame) -> pd.DataFrame:
     ok = runs[runs.status == "ok"]
     columns = [c for c in (*RELATIVE_MEASURES, *COUNT_MEASURES) if c in ok]
     key = ["robot", "point"] if "robot" in ok else ["point"]
-    reference = (
-        ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])]
-        .set_index(key)[columns]
-        .astype(float)
-    )
+    reference = ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])][key + columns]
     if reference.empty or not columns:
         return pd.DataFrame()
+    reference = reference.drop_duplicates(key)
     rows = []
     for strategy, policy in _arms(ok):
         if (strategy, policy) == REFERENCE:
             continue
-        arm = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].set_index(key)[columns].astype(float)
-        ref = reference.reindex(arm.index)
+        # each run of the arm with its reference run's values (NaN where the point has none)
+        joined = ok[(ok.pre_impact == strategy) & (ok.policy == policy)][key + columns].merge(
+            reference, on=key, how="left", suffixes=("", ":reference")
+        )
+        arm = joined[columns].astype(float)
+        ref = joined[[f"{c}:reference" for c in columns]].astype(float).set_axis(columns, axis=1)
         row: dict[str, object] = {
             "pre_impact": strategy,
             "policy": policy,
