@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from functools import cache
@@ -56,6 +57,7 @@ class Drawn:
     paths: dict[str, list[Path]] = field(default_factory=dict)
     notes: dict[str, str] = field(default_factory=dict)
     payloads: dict[str, Any] = field(default_factory=dict)  # what a job returned besides its files
+    cpu_s: dict[str, float] = field(default_factory=dict)  # CPU time of each figure drawn (s)
     drawn: int = 0
     cached: int = 0
 
@@ -146,21 +148,25 @@ def _load_cache(out: Path) -> dict[str, Any]:
     )
 
 
-Outcome = tuple[list[Path], str, Any]  # files, note ("" or why the figure was skipped), payload
+Outcome = tuple[list[Path], str, Any, float]  # files, note ("" or why skipped), payload, CPU s
 
 
 def _draw_one(figure: Figure, vector: bool) -> Outcome:
-    """In a worker: draw one figure."""
-    set_vector(vector)
+    """In a worker: draw one figure; also returns the CPU time it took (s, this process's threads)."""
+    before = set_vector(vector)
+    started = time.process_time()
     try:
         drawn = figure.draw(*figure.args)
     except FigureSkipped as exc:
-        return [], str(exc), None
+        return [], str(exc), None, time.process_time() - started
     except FileNotFoundError as exc:  # a run stored without its time series (or since deleted)
-        return [], f"{figure.name}: skipped, {exc.filename or exc} is missing", None
+        return [], f"{figure.name}: skipped, {exc.filename or exc} is missing", None, 0.0
+    finally:
+        set_vector(before)  # drawing in this process leaves its setting as it was
+    cpu = time.process_time() - started
     if isinstance(drawn, tuple):
-        return list(drawn[0]), "", drawn[1]
-    return list(drawn), "", None
+        return list(drawn[0]), "", drawn[1], cpu
+    return list(drawn), "", None, cpu
 
 
 def _run_all(todo: list[Figure], vector: bool, jobs: int) -> list[Outcome]:
@@ -203,8 +209,9 @@ def draw(
             result.cached += 1
         else:
             todo.append(figure)
-    for figure, (paths, note, payload) in zip(todo, _run_all(todo, vector, jobs)):
+    for figure, (paths, note, payload, cpu) in zip(todo, _run_all(todo, vector, jobs)):
         result.paths[figure.name] = paths
+        result.cpu_s[figure.name] = cpu
         if note:
             result.notes[figure.name] = note
         if payload is not None:
@@ -218,6 +225,7 @@ def draw(
             "key": keys[f.name],
             "files": [str(p.relative_to(out)) for p in result.paths[f.name]],
             "note": result.notes.get(f.name, ""),
+            "cpu_s": round(result.cpu_s.get(f.name, cached["figures"].get(f.name, {}).get("cpu_s", 0.0)), 3),
             "payload": str(_payload_path(out, keys[f.name]).relative_to(out))
             if f.name in result.payloads
             else "",
@@ -226,6 +234,10 @@ def draw(
         if not _unavailable(result.notes.get(f.name, ""))
     }
     _save_cache(out, {"format": CACHE_FORMAT, "figures": entries, "files": digests.used})
+    kept = {e["payload"] for e in entries.values() if e["payload"]}
+    for stale in (out / PAYLOADS).glob("*.pkl") if (out / PAYLOADS).is_dir() else []:
+        if str(stale.relative_to(out)) not in kept:
+            stale.unlink()
     result.paths = {f.name: result.paths[f.name] for f in figures}
     return result
 

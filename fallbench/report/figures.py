@@ -24,9 +24,10 @@ class FigureSkipped(RuntimeError):
     """A figure that cannot be drawn (no OpenGL context, no replay): its message is the note."""
 
 
-def set_vector(vector: bool) -> None:
-    """Write an SVG next to each PNG from now on (in this process), or not."""
-    _VECTOR[0] = vector
+def set_vector(vector: bool) -> bool:
+    """Write an SVG next to each PNG from now on (in this process), or not; returns the setting before."""
+    before, _VECTOR[0] = _VECTOR[0], vector
+    return before
 
 
 def _impact_line(ax, impact: float) -> None:
