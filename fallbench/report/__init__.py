@@ -108,7 +108,7 @@ def _paper_jobs(families: list[Family], results: Path, out: Path) -> dict[str, l
                 tuple(rows.run_id),
             )
             for point, policy in reshape_points(family.picks)
-            for rows in [family.runs[(family.runs.point == point) & (family.runs.policy == policy)]]
+            for rows in [_one_run_each(family, point, policy)]
         ]
         jobs[family.stem] = mine
     return jobs
@@ -123,7 +123,7 @@ def _top_down_jobs(family: Family, results: Path, out: Path) -> list[Figure]:
     for pick in family.picks:
         if pick.pre_impact != "direction":
             continue
-        rows = family.runs[(family.runs.point == pick.point) & (family.runs.policy == pick.policy)]
+        rows = _one_run_each(family, pick.point, pick.policy, pick.run_id)
         if {"none", "direction"} <= set(rows.pre_impact) and "direction_origin_x" in rows:
             jobs.append(
                 Figure(
@@ -137,6 +137,17 @@ def _top_down_jobs(family: Family, results: Path, out: Path) -> list[Figure]:
 
 
 DIRECTION_MIRRORS = "dir_fig"
+
+
+def _one_run_each(family: Family, point: str, policy: str, chosen: str = "") -> pd.DataFrame:
+    """The point's successful runs under `policy`, one per strategy: the chosen run for its own
+    strategy, else the smallest run id (a store may hold the same point twice, e.g. run by two
+    versions of fallbench)."""
+    rows = family.runs[
+        (family.runs.point == point) & (family.runs.policy == policy) & (family.runs.status == "ok")
+    ]
+    rows = rows.assign(first=rows.run_id != chosen).sort_values(["first", "run_id"])
+    return rows.drop_duplicates("pre_impact").drop(columns="first").sort_values("run_id")
 
 
 def _slim(rows: pd.DataFrame) -> pd.DataFrame:
