@@ -434,8 +434,12 @@ def bench_command(
         None, help="Robot of the environment's throughput (default: the file's)."
     ),
     env_episodes: int = typer.Option(4, min=1, help="Episodes of the environment's throughput."),
+    report_store: Path | None = typer.Option(
+        None, help="A results store whose `fallbench report` is timed, cold and warm (e.g. the main job's)."
+    ),
+    report_jobs: int = typer.Option(2, min=1, help="--jobs of the timed report."),
 ) -> None:
-    """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store.
+    """Measure speed against the physics limit, 2-job scaling, start-up, memory, bytes per run, the results store, the report.
 
     Prints and writes a table: pure-physics steps/s; per policy, episode time / pure physics and /
     its own physics time, controller cost per control step; adaptive_qp's QP model, build and solve
@@ -452,6 +456,8 @@ def bench_command(
         fail(f"--e2e-runs {e2e_runs!r}: expected comma-separated numbers of runs")
     if any(n < 4 or n > 100 or n % 4 for n in sizes):
         fail(f"--e2e-runs {e2e_runs!r}: each size must be a multiple of 4 between 4 and 100")
+    if report_store is not None and not (report_store / "metrics").is_dir():
+        fail(f"--report-store {report_store}: no results store here (run `fallbench run sweep` first)")
     figures = run_bench(
         chosen,
         _strategies(pre_impact)[0],
@@ -464,6 +470,8 @@ def bench_command(
         env_scenario=Path(env_scenario) if env_scenario else None,
         env_robot=_robot(env_robot),
         env_episodes=env_episodes,
+        report_store=report_store,
+        report_jobs=report_jobs,
     )
     table = markdown(figures)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -479,21 +487,28 @@ def bench_command(
 def report_command(
     results: Path = typer.Option(Path("results"), help="Results store folder."),
     out: Path = typer.Option(
-        Path("reports"), help="Folder for figures (PNG, SVG), index.html and summary.md."
+        Path("reports"), help="Folder for figures (PNG; SVG with --svg), index.html and summary.md."
     ),
     progress: bool = typer.Option(True, help="Show a progress bar."),
+    jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Processes drawing figures in parallel."),
+    svg: bool = typer.Option(False, "--svg", help="Also write every figure as SVG (vector) next to its PNG."),
 ) -> None:
-    """Draw the papers' figures per drop/push point, sweep comparisons and the claims table."""
-    from fallbench.report import build_report
+    """Answer first (forest plots, rankings), then per family its representative falls and the papers'
+    figures per point, sweep comparisons and the claims; figures whose runs did not change are kept."""
+    from fallbench.report import Options, build_report
     from fallbench.results.store import consolidate
 
     if (results / "runs").is_dir():
         consolidate(results)  # runs stored by `run one` or an interrupted sweep
+    options = Options(jobs=jobs, svg=svg)
     try:
-        paths = build_report(results, out, progress=progress and sys.stderr.isatty())
+        paths = build_report(results, out, progress=progress and sys.stderr.isatty(), options=options)
     except FileNotFoundError as exc:
         fail(str(exc))
-    typer.echo(f"wrote {len(paths)} files; open {out}/index.html (summary in {out}/summary.md)")
+    typer.echo(
+        f"wrote {len(paths)} files ({options.drawn} figures drawn, {options.cached} unchanged); "
+        f"open {out}/index.html (summary in {out}/summary.md)"
+    )
 
 
 @app.command("render")

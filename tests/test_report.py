@@ -28,7 +28,7 @@ def test_report_writes_figures_tables_and_html(tmp_path: Path, sweep) -> None:
     results, out = tmp_path / "results", tmp_path / "reports"
     run = sweep(suite, results)
     assert run.exit_code == 0, run.output
-    result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out)])
+    result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--svg"])
     assert result.exit_code == 0, result.output
     for stem in ("fig6a", "fig6b", "fig4"):
         assert len(list(out.glob(f"{stem}_drop_initial_height_1*.png"))) == 1
@@ -208,7 +208,7 @@ def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
         table.loc[(2.0, "stiff"), "imu_peak_z_landing"] == 20.0 and table.loc[(2.0, "stiff"), "fell"] == 1.0
     )
     paths = sensitivity_figure(swept, tmp_path)
-    assert [p.name for p in paths] == ["sensitivity_gain_scale.png", "sensitivity_gain_scale.svg"]
+    assert [p.name for p in paths] == ["sensitivity_gain_scale.png"]  # SVG only with `--svg`
     assert paths[0].stat().st_size > 10_000
     softness = SWEEPS[1]
     contact = rows.drop(columns=["param:policy_params.stiff.gain_scale"]).assign(

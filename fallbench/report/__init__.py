@@ -8,138 +8,306 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from tqdm import tqdm
 
 from fallbench.report import pages, ranking
 from fallbench.report.claims import claims_table, verdict_matrix
-from fallbench.report.direction import direction_report
-from fallbench.report.figures import gains_figure, imu_figure, knee_figure, torque_figure
-from fallbench.report.filmstrips import render_filmstrips
+from fallbench.report.direction import direction_report, top_down_figure
+from fallbench.report.drawing import Drawn, Figure, draw
+from fallbench.report.figures import draw_paper_figures, paper_points
+from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
+from fallbench.report.forest import forest_figure, forest_markdown, paired_changes
 from fallbench.report.grouping import with_robot
-from fallbench.report.preimpact import preimpact_report
+from fallbench.report.preimpact import (
+    draw_reshaped_falls,
+    first_impact_figure,
+    preimpact_tables,
+    reshape_points,
+)
 from fallbench.report.sensitivity import SWEEPS, sensitivity_figure, sensitivity_runs, sensitivity_table
-from fallbench.report.stats import natural_sorted
-from fallbench.report.sweeps import distribution_figure, median_table, parameter_figures
+from fallbench.report.sweeps import KEY_METRICS, distribution_figure, median_table, parameter_figures
 from fallbench.report.validity import robust_claims, split_steps, step_changes
 from fallbench.results import store
 
 
-def _leg(robot: str) -> tuple[dict[str, str], tuple[float, float], dict[str, float]]:
-    """A robot's right-leg pitch joints, its knee range (rad, from the URDF) and their torque limits (Nm)."""
-    from fallbench.scenario import Scenario
-    from fallbench.sim.world import build_world
+@dataclass
+class Family:
+    """One robot's scenario family: its runs, ranking (computed once) and representative falls."""
 
-    world = build_world(Scenario(name="limits", duration=1.0, robot=robot))
-    leg = world.robot.leg_pitch("right")
-    low, high = world.joint_range[world.joint_names.index(leg["knee"])]
-    return (
-        leg,
-        (float(low), float(high)),
-        {j: float(world.torque_limit[world.joint_names.index(j)]) for j in leg.values()},
-    )
+    robot: str
+    name: str
+    runs: pd.DataFrame
+    ranked: ranking.Ranked
+    picks: list[Pick]
+    changes: pd.DataFrame  # paired changes against none + stiff (the forest plot's numbers)
+
+    @property
+    def table(self) -> pd.DataFrame:
+        return self.ranked[0]
+
+    @property
+    def verdict(self) -> str:
+        return ranking.verdict(self.runs, self.ranked)
+
+    @property
+    def title(self) -> str:
+        return f"{self.robot} {self.name}".strip()
+
+    @property
+    def stem(self) -> str:
+        return pages.family_file(self.robot, self.name).removesuffix(".html")
 
 
-def paper_figures(runs: pd.DataFrame, results: Path, out: Path, progress: bool) -> dict[str, list[Path]]:
-    """Figs. 4, 5, 6a, 6b for each drop or push scenario point (seed 0) with more than one policy,
-    as in 002: gain policies alone (pre-impact strategy `none`)."""
-    figures: dict[str, list[Path]] = {}
-    # seed 0 only: a randomised family gets one point's figures, not one per seed
-    ok = runs[
-        (runs.status == "ok")
-        & runs.scenario.str.contains("drop|push")
-        & (runs.pre_impact == "none")
-        & (runs.seed == 0)
+def _families(per_robot: dict[str, pd.DataFrame]) -> list[Family]:
+    found = []
+    for robot, robot_runs in per_robot.items():
+        for family in ranking.families(robot_runs):
+            group = robot_runs[robot_runs.scenario == family]
+            done = ranking.ranked(group)
+            arms = ranking.arm_order(group, done)
+            found.append(
+                Family(
+                    robot,
+                    family,
+                    group,
+                    done,
+                    family_picks(robot, family, group, arms),
+                    paired_changes(group, arms),
+                )
+            )
+    return found
+
+
+MAX_FAMILY_POINTS = 12  # a family with more eligible points gets the paper figures of its chosen falls only
+
+
+def _paper_jobs(families: list[Family], results: Path, out: Path) -> dict[str, list[Figure]]:
+    """Family stem -> the figures of 002 per point (`figures.paper_points`) and 004's top-down
+    plots (`none` and `direction` on the same point and policy, with a control origin): every
+    eligible point of a family with at most MAX_FAMILY_POINTS, else the points of its chosen falls."""
+    jobs: dict[str, list[Figure]] = {}
+    for family in families:
+        shown = {p.point for p in family.picks}
+        eligible = paper_points(store.with_timeseries(results, family.runs))  # not --timeseries none
+        if len(eligible) > MAX_FAMILY_POINTS:
+            eligible = [(point, rows) for point, rows in eligible if point in shown]
+        mine = [
+            Figure(
+                f"002:{family.robot}:{point}",
+                draw_paper_figures,
+                (_slim(rows), results, out, point),
+                tuple(rows.run_id),
+            )
+            for point, rows in eligible
+        ]
+        mine += _top_down_jobs(family, results, out)
+        mine += [
+            Figure(
+                f"reshape:{family.robot}:{point}:{policy}",
+                draw_reshaped_falls,
+                (rows, results, out, point, policy),
+                tuple(rows.run_id),
+            )
+            for point, policy in reshape_points(family.picks)
+            for rows in [_one_run_each(family, point, policy)]
+        ]
+        jobs[family.stem] = mine
+    return jobs
+
+
+def _top_down_jobs(family: Family, results: Path, out: Path) -> list[Figure]:
+    """004's top-down plots of the family's chosen `direction` falls (the `dir_fig*` mirrors get
+    theirs from `direction_report`)."""
+    if family.name.startswith(DIRECTION_MIRRORS):
+        return []
+    jobs = []
+    for pick in family.picks:
+        if pick.pre_impact != "direction":
+            continue
+        rows = _one_run_each(family, pick.point, pick.policy, pick.run_id)
+        if {"none", "direction"} <= set(rows.pre_impact) and "direction_origin_x" in rows:
+            jobs.append(
+                Figure(
+                    f"004:{family.robot}:{pick.point}:{pick.policy}",
+                    top_down_figure,
+                    (rows, results, out, pick.point, pick.policy),
+                    tuple(rows.run_id),
+                )
+            )
+    return list({job.name: job for job in jobs}.values())
+
+
+DIRECTION_MIRRORS = "dir_fig"
+
+
+def _one_run_each(family: Family, point: str, policy: str, chosen: str = "") -> pd.DataFrame:
+    """The point's successful runs under `policy`, one per strategy: the chosen run for its own
+    strategy, else the smallest run id (a store may hold the same point twice, e.g. run by two
+    versions of fallbench)."""
+    rows = family.runs[
+        (family.runs.point == point) & (family.runs.policy == policy) & (family.runs.status == "ok")
     ]
-    ok = store.with_timeseries(results, ok)
-    points = [(point, ok[ok.point == point]) for point in natural_sorted(ok.point.unique())]
-    points = [(point, group) for point, group in points if group.policy.nunique() > 1]
-    for point, group in tqdm(points, desc="figures", unit="point", disable=not progress):
-        leg, knee_limits, limits = _leg(group.robot.iloc[0])
-        series = {row.policy: store.load_timeseries(results, row.run_id) for row in group.itertuples()}
-        stem = "".join(c if c.isalnum() else "_" for c in point).strip("_")
-        paths = imu_figure(series, group, point, out, f"fig6a_{stem}")
-        paths += knee_figure(series, group, knee_limits, point, out, f"fig6b_{stem}", leg)
-        paths += torque_figure(series, group, limits, point, out, f"fig4_{stem}", leg)
-        if "adaptive_qp" in series:
-            impact = group.loc[group.policy == "adaptive_qp", "impact_time"].iloc[0]
-            paths += gains_figure(series["adaptive_qp"], impact, point, out, f"fig5_{stem}", leg)
-        figures[point] = paths
-    return figures
+    rows = rows.assign(first=rows.run_id != chosen).sort_values(["first", "run_id"])
+    return rows.drop_duplicates("pre_impact").drop(columns="first").sort_values("run_id")
 
 
-def _answer(runs: pd.DataFrame, robot: str) -> list[str]:
+def _slim(rows: pd.DataFrame) -> pd.DataFrame:
+    """The columns the figures of 002 read: fewer cells to hash and to send to a worker."""
+    return rows[[c for c in ("run_id", "robot", "point", "policy", "impact_time") if c in rows]]
+
+
+def _forest_jobs(per_robot: dict[str, pd.DataFrame], families: list[Family], out: Path) -> list[Figure]:
+    """The overview's forest plot per robot (all its families' pairs) and one per family."""
+    jobs = []
+    for robot, robot_runs in per_robot.items():
+        changes = paired_changes(robot_runs)
+        title = f"{robot} all families: change against none + stiff on the same point and seed".strip()
+        jobs.append(
+            Figure(f"forest:{robot}", forest_figure, (changes, title, out, f"forest_{robot or 'all'}"))
+        )
+    for family in families:
+        title = f"{family.title}: change against none + stiff on the same point and seed"
+        jobs.append(
+            Figure(
+                f"forest:{family.stem}", forest_figure, (family.changes, title, out, f"forest_{family.stem}")
+            )
+        )
+    return jobs
+
+
+def _summary_figure_jobs(runs: pd.DataFrame, out: Path) -> list[Figure]:
+    """Figures of metric rows only: distributions, metrics vs swept values, first impacts, sensitivity."""
+    ok = runs[runs.status == "ok"]
+    jobs = [Figure("sweeps:distributions", distribution_figure, (ok[["policy", *KEY_METRICS]], out))]
+    keep = ["robot", "scenario", "pre_impact", "policy", *KEY_METRICS]
+    for (robot, family), group in ok.groupby(["robot", "scenario"]):
+        params = [c for c in group.columns if c.startswith("param:") and group[c].notna().any()]
+        if params:
+            jobs.append(Figure(f"sweeps:{robot}:{family}", parameter_figures, (group[keep + params], out)))
+    if "first_impact_group" in runs:
+        jobs.append(Figure("preimpact:first_impact", first_impact_figure, (runs, out)))
+    for sweep in SWEEPS:
+        swept = sensitivity_runs(runs, sweep)
+        if len(swept):
+            jobs.append(Figure(f"sensitivity:{sweep.name}", sensitivity_figure, (swept, out, sweep)))
+    return jobs
+
+
+def _direction_job(runs: pd.DataFrame, results: Path, out: Path) -> list[Figure]:
+    """004's report (`direction_report`: figures and tables) as one job, on the families with
+    `direction` runs."""
+    families = runs.loc[runs.pre_impact == "direction", "scenario"].unique()
+    mine = runs[runs.scenario.isin(families)]
+    if mine.empty:
+        return []
+    return [Figure("004:report", direction_report, (mine, results, out), tuple(mine.run_id))]
+
+
+def _answer(families: list[Family], robot: str) -> list[str]:
     """Per scenario family: the one-line verdict and the ranking with intervals, linked to its page."""
     body = []
-    for family in ranking.families(runs):
-        group = runs[runs.scenario == family]
+    for family in (f for f in families if f.robot == robot):
         body += [
-            f"<h3>{pages.link(pages.family_file(robot, family), family)} "
-            f"<small>({group.point.nunique()} points x seeds, {len(group)} runs)</small></h3>",
-            f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>",
-            pages.table(ranking.ranking_table(group)),
+            f"<h3>{pages.link(pages.family_file(robot, family.name), family.name)} "
+            f"<small>({family.runs.point.nunique()} points x seeds, {len(family.runs)} runs)</small></h3>",
+            f"<p class='verdict'>{html.escape(family.verdict)}</p>",
+            pages.table(family.table),
         ]
     return body
 
 
-def _strip_images(strips: dict[str, list[Path]], out: Path, note: str) -> list[str]:
-    body = [f"<p><em>{html.escape(note)}</em></p>"] if note else []
-    for caption, paths in strips.items():
-        body += [f"<h3>{html.escape(caption)}</h3>"] + [pages.image(p, out) for p in paths]
+FOREST_NOTE = (
+    "Each row a pre-impact strategy + gain policy, best mean rank first; each panel a damage measure. "
+    "Dot: the median of its paired changes against the unprotected fall (none + stiff) of the same point "
+    "and seed (fell: the mean, i.e. the change in the fraction of runs that fell); bar: 95 % bootstrap "
+    "interval; grey line: no change. A bar clear of the line is a change the data support. Marker: "
+    "circle none, square reshape, diamond direction; colour: the gain policy; n: pairs."
+)
+
+
+def _forest(paths: list[Path], out: Path) -> list[str]:
+    if not paths:
+        return ["<p>(no forest plot: no none + stiff runs to pair with)</p>"]
+    return [pages.image(p, out) for p in paths if p.suffix == ".png"] + [
+        f"<p><small>{FOREST_NOTE}</small></p>"
+    ]
+
+
+def _picked_strips(family: Family, drawn: Drawn, out: Path) -> list[str]:
+    """The family's representative falls: per strategy and policy (best first) typical and worst."""
+    body = []
+    for pick in family.picks:
+        paths = drawn.paths.get(figure_name(pick.run_id), [])
+        caption = (
+            f"{pick.pre_impact} + {pick.policy}, {pick.role} fall (damage {pick.damage:.2f}): {pick.point}"
+        )
+        note = drawn.notes.get(figure_name(pick.run_id), "")
+        body.append(f"<h4>{html.escape(caption)}</h4>")
+        body += [pages.image(p, out) for p in paths] or [f"<p><em>{html.escape(note)}</em></p>"]
     return body
 
 
 def _family_page(
-    runs: pd.DataFrame,
-    robot: str,
-    family: str,
-    out: Path,
-    figures: dict[str, list[Path]],
-    sweep_paths: list[Path],
-    strips: dict[str, list[Path]],
+    family: Family, out: Path, sweep_paths: list[Path], drawn: Drawn, paper: list[Figure]
 ) -> Path:
-    group = runs[runs.scenario == family]
-    title = f"{robot} {family}".strip()
+    group = family.runs
     body = [
         f"<p>{pages.link('index.html', 'overview')}</p>",
-        f"<h1>{html.escape(title)}</h1>",
+        f"<h1>{html.escape(family.title)}</h1>",
         f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds).</p>",
-        f"<p class='verdict'>{html.escape(ranking.verdict(group))}</p>",
+        f"<p class='verdict'>{html.escape(family.verdict)}</p>",
+        "<h2>Change against the unprotected fall (none + stiff), per damage measure</h2>",
+        *_forest(drawn.paths.get(f"forest:{family.stem}", []), out),
         "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
-        pages.table(ranking.ranking_table(group)),
+        pages.table(family.table),
         "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
         pages.table(ranking.relative_changes(group)),
         "<h2>Medians per strategy and policy</h2>",
         pages.table(median_table(group).round(3), index=True),
     ]
-    mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family}_")]
+    mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family.name}_")]
     if mine:
         body += ["<h2>Metrics against the swept values</h2>"] + [pages.image(p, out) for p in mine]
-    strip_ids = set(group.run_id)
-    chosen = {
-        c: [p for p in paths if p.stem.removeprefix("filmstrip_") in strip_ids] for c, paths in strips.items()
-    }
-    body += _strip_images({c: paths for c, paths in chosen.items() if paths}, out, "")
-    points = natural_sorted(p for p in figures if p in set(group.point))
-    if points:
-        body.append("<h2>Per point: the figures of 002 (IMU z, right knee, leg torques, adaptive gains)</h2>")
-    for point in points:
-        images = "".join(pages.image(p, out) for p in figures[point] if p.suffix == ".png")
-        body.append(f"<details><summary>{html.escape(point)}</summary>{images}</details>")
-    return pages.write(out / pages.family_file(robot, family), title, body)
+    if family.picks:
+        body += [
+            "<h2>Representative falls</h2>",
+            f"<p><small>{html.escape(DAMAGE_NOTE)}</small></p>",
+            *_picked_strips(family, drawn, out),
+        ]
+    figures = [(job, drawn.paths.get(job.name, [])) for job in paper]
+    figures = [(job, [p for p in paths if p.suffix == ".png"]) for job, paths in figures]
+    if any(paths for _, paths in figures):
+        body.append(
+            "<h2>Per point: the figures of 002 (IMU z, right knee, leg torques, adaptive gains), "
+            "004's top-down view, reshaped falls</h2>"
+        )
+    for job, paths in figures:
+        if paths:
+            images = "".join(pages.image(p, out) for p in paths)
+            body.append(
+                f"<details><summary>{html.escape(job.name.split(':', 2)[-1])}</summary>{images}</details>"
+            )
+    return pages.write(out / pages.family_file(family.robot, family.name), family.title, body)
+
+
+DAMAGE_NOTE = (
+    "Chosen by the data: a run's damage is the mean, over the damage measures of the ranking, of its "
+    "percentile rank among the family's runs (1 = the most damage on every measure). Per strategy and "
+    "policy: the typical fall (damage nearest that strategy and policy's median) and the worst one."
+)
 
 
 @dataclass
 class _Sections:
     """Everything the overview and summary.md show, computed once: figure paths and tables."""
 
-    figures: dict[str, list[Path]]  # scenario point -> its figures of 002
+    families: list[Family]
+    drawn: Drawn
+    paper: dict[str, list[Figure]]  # family stem -> its per-point figure jobs
     sweep_paths: list[Path]
     pre_paths: list[Path]  # pre-impact strategies: reshape, then direction
     pre_tables: dict[str, pd.DataFrame]
     sensitivity_paths: list[Path]
     sensitivity: dict[str, pd.DataFrame]  # "the baseline stiffness" -> medians per setting
-    strips: dict[str, list[Path]]  # caption -> rendered filmstrips
-    strip_note: str
     medians: pd.DataFrame
     claims: pd.DataFrame
     verdicts: pd.DataFrame
@@ -148,42 +316,58 @@ class _Sections:
 
     @property
     def strip_paths(self) -> list[Path]:
-        return [p for paths in self.strips.values() for p in paths]
+        return [p for name, paths in self.drawn.paths.items() if name.startswith("filmstrip:") for p in paths]
 
     @property
     def figure_paths(self) -> list[Path]:
-        return [p for paths in self.figures.values() for p in paths]
+        return [p for jobs in self.paper.values() for job in jobs for p in self.drawn.paths.get(job.name, [])]
+
+    def forest(self, robot: str) -> list[Path]:
+        return self.drawn.paths.get(f"forest:{robot}", [])
+
+    @property
+    def strip_note(self) -> str:
+        notes = {n for name, n in self.drawn.notes.items() if name.startswith("filmstrip:")}
+        return "; ".join(sorted(notes))
 
 
 def _sections(
-    runs: pd.DataFrame, halved: pd.DataFrame, results: Path, out: Path, progress: bool
+    runs: pd.DataFrame, halved: pd.DataFrame, results: Path, out: Path, options: Options
 ) -> _Sections:
-    """Draw every figure into `out` and compute every table of the report; `halved` are the runs at
-    another physics step, for the numerical-validity section only."""
-    figures = paper_figures(runs, results, out, progress)
-    ok = runs[runs.status == "ok"]
-    sweep_paths = distribution_figure(ok, out) + parameter_figures(ok, out)
-    pre_paths, pre_tables = preimpact_report(runs, results, out)
-    sensitivity_paths, sensitivity = [], {}
-    for sweep in SWEEPS:
-        swept = sensitivity_runs(runs, sweep)
-        sensitivity_paths += sensitivity_figure(swept, out, sweep)
-        if len(swept):
-            sensitivity[sweep.title] = sensitivity_table(swept, sweep)
-    direction_paths, direction_tables = direction_report(runs, results, out)
-    strips, strip_note = render_filmstrips(runs, results, out)
-    medians = median_table(runs)
+    """Draw every figure into `out` (in parallel, the unchanged ones from the cache) and compute
+    every table of the report; `halved` are the runs at another physics step, for the
+    numerical-validity section only."""
+    per_robot = ranking.robots(runs)
+    families = _families(per_robot)
+    paper = _paper_jobs(families, results, out)
+    chosen = [p for f in families for p in f.picks]
+    jobs = _forest_jobs(per_robot, families, out) + filmstrip_figures(chosen, results, out)
+    jobs += [job for family_jobs in paper.values() for job in family_jobs]
+    jobs += _summary_figure_jobs(runs, out) + _direction_job(runs, results, out)
+    drawn = draw(jobs, results, out, jobs=options.jobs, vector=options.svg)
+    options.drawn, options.cached = drawn.drawn, drawn.cached
+
+    def paths(prefix: str) -> list[Path]:
+        return [p for name, ps in drawn.paths.items() if name.startswith(prefix) for p in ps]
+
+    sensitivity = {
+        sweep.title: sensitivity_table(swept, sweep)
+        for sweep in SWEEPS
+        for swept in [sensitivity_runs(runs, sweep)]
+        if len(swept)
+    }
+    direction_paths, direction_tables = paths("004:report"), drawn.payloads.get("004:report", {})
     claims = robust_claims(claims_table(runs), halved)
     return _Sections(
-        figures=figures,
-        sweep_paths=sweep_paths,
-        pre_paths=pre_paths + direction_paths,
-        pre_tables=pre_tables | direction_tables,
-        sensitivity_paths=sensitivity_paths,
+        families=families,
+        drawn=drawn,
+        paper=paper,
+        sweep_paths=paths("sweeps:"),
+        pre_paths=paths("preimpact:") + paths("reshape:") + direction_paths,
+        pre_tables=preimpact_tables(runs) | direction_tables,
+        sensitivity_paths=paths("sensitivity:"),
         sensitivity=sensitivity,
-        strips=strips,
-        strip_note=strip_note,
-        medians=medians,
+        medians=median_table(runs),
         claims=claims,
         verdicts=verdict_matrix(claims),
         step_changes=step_changes(runs, halved) if len(halved) else pd.DataFrame(),
@@ -191,12 +375,11 @@ def _sections(
     )
 
 
-def _family_pages(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Sections) -> list[Path]:
+def _family_pages(out: Path, sections: _Sections) -> list[Path]:
     """One page per robot and scenario family."""
     return [
-        _family_page(robot_runs, robot, family, out, sections.figures, sections.sweep_paths, sections.strips)
-        for robot, robot_runs in per_robot.items()
-        for family in ranking.families(robot_runs)
+        _family_page(family, out, sections.sweep_paths, sections.drawn, sections.paper[family.stem])
+        for family in sections.families
     ]
 
 
@@ -209,31 +392,42 @@ def _counted(runs: pd.DataFrame, halved: pd.DataFrame) -> str:
 
 
 def _index_answer(
-    runs: pd.DataFrame,
-    halved: pd.DataFrame,
-    results: Path,
-    per_robot: dict[str, pd.DataFrame],
-    failed: pd.DataFrame,
+    runs: pd.DataFrame, halved: pd.DataFrame, results: Path, out: Path, sections: _Sections
 ) -> list[str]:
-    """The overview's opening: what was run, then per robot the ranking of every family."""
+    """The overview's opening: what was run, the forest plot per robot, then per robot the ranking
+    of every family."""
     body = [
         f"<h1>fallbench report</h1><p>{_counted(runs, halved)} from <code>{html.escape(str(results))}</code>; "
-        f"{len(failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
+        f"{len(sections.failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
         "runs of a family: its sweep points and seeds.</p>",
         "<h2>What hurts the robot least</h2>",
-        "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
-        "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>",
     ]
-    for robot, robot_runs in per_robot.items():
+    robots = list(dict.fromkeys(f.robot for f in sections.families))
+    for robot in robots:
+        body += [
+            f"<h3>Change against the unprotected fall, every family {html.escape(robot)}</h3>",
+            *_forest(sections.forest(robot), out),
+        ]
+    body.append(
+        "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
+        "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>"
+    )
+    for robot in robots:
         if robot:
             body.append(f"<h2>Robot {html.escape(robot)}</h2>")
-        body += _answer(robot_runs, robot)
+        body += _answer(sections.families, robot)
     return body
 
 
 def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Sections) -> list[str]:
     """The overview after the answer: falls, claims, changes, pre-impact strategies, sensitivity."""
-    body = ["<h2>Falls, rendered</h2>"] + _strip_images(sections.strips, out, sections.strip_note)
+    body = [
+        "<h2>Falls, rendered</h2>",
+        "<p>Each family's page shows, per strategy and policy, its typical and its worst fall as filmstrips "
+        f"({len(sections.strip_paths)} rendered).</p>",
+    ]
+    if sections.strip_note:
+        body.append(f"<p><em>{html.escape(sections.strip_note)}</em></p>")
     body += ["<h2>Claims of the papers</h2>", pages.table(sections.verdicts), pages.table(sections.claims)]
     if len(sections.step_changes):
         body += [
@@ -279,32 +473,39 @@ def _index_links(family_pages: list[Path], sections: _Sections) -> list[str]:
 
 
 def _summary_answer(
-    runs: pd.DataFrame,
-    halved: pd.DataFrame,
-    results: Path,
-    per_robot: dict[str, pd.DataFrame],
-    failed: pd.DataFrame,
+    runs: pd.DataFrame, halved: pd.DataFrame, results: Path, out: Path, sections: _Sections
 ) -> list[str]:
-    """summary.md's opening: what was run, then the verdict and ranking of every robot and family."""
+    """summary.md's opening: what was run, the forest plots, then the verdict and ranking of every
+    robot and family."""
     summary = [
         "# fallbench report",
         "",
-        f"{_counted(runs, halved)} from `{results}`; {len(failed)} failed or diverged.",
+        f"{_counted(runs, halved)} from `{results}`; {len(sections.failed)} failed or diverged.",
         "",
-        "## What hurts the robot least (median [95 % bootstrap CI] over points and seeds)",
+        "## What hurts the robot least",
+        "",
+        FOREST_NOTE,
         "",
     ]
-    for robot, robot_runs in per_robot.items():
-        for family in ranking.families(robot_runs):
-            group = robot_runs[robot_runs.scenario == family]
-            summary += [
-                f"### {robot} {family}".replace("  ", " "),
-                "",
-                ranking.verdict(group),
-                "",
-                ranking.ranking_table(group).to_markdown(index=False),
-                "",
-            ]
+    for robot in dict.fromkeys(f.robot for f in sections.families):
+        summary += [
+            f"![{robot} forest plot]({p.relative_to(out)})"
+            for p in sections.forest(robot)
+            if p.suffix == ".png"
+        ]
+        summary.append("")
+    summary += ["(median [95 % bootstrap CI] over points and seeds)", ""]
+    for family in sections.families:
+        summary += [
+            f"### {family.title}",
+            "",
+            family.verdict,
+            "",
+            forest_markdown(family.changes) or "(no none + stiff runs to pair with)",
+            "",
+            family.table.to_markdown(index=False),
+            "",
+        ]
     return summary
 
 
@@ -359,31 +560,39 @@ def _summary_files(family_pages: list[Path], sections: _Sections) -> list[str]:
     return files
 
 
-def build_report(results: Path, out: Path, progress: bool = True) -> list[Path]:
+@dataclass
+class Options:
+    """How to draw: worker processes, vector files; and what happened (figures drawn, cached)."""
+
+    jobs: int = 1
+    svg: bool = False
+    drawn: int = 0
+    cached: int = 0
+
+
+def build_report(
+    results: Path, out: Path, progress: bool = True, options: Options | None = None
+) -> list[Path]:
     """Write the report of the store `results` into `out`: figures, index.html, one page per robot
-    and scenario family, summary.md. Returns the files written, index.html and summary.md first."""
+    and scenario family, summary.md. Returns the files written, index.html and summary.md first.
+    Figures are drawn on `options.jobs` processes; those whose runs and code did not change since
+    the last report into `out` are kept (drawing.py)."""
+    options = options or Options()
     runs = store.load_metrics(results)
     if runs.empty:
         raise FileNotFoundError(f"{results}: the results store has no runs")
     runs, halved = split_steps(with_robot(runs))
     out.mkdir(parents=True, exist_ok=True)
-    sections = _sections(runs, halved, results, out, progress)
+    sections = _sections(runs, halved, results, out, options)
     per_robot = ranking.robots(runs)
-    family_pages = _family_pages(per_robot, out, sections)
+    family_pages = _family_pages(out, sections)
 
-    index_body = _index_answer(runs, halved, results, per_robot, sections.failed)
+    index_body = _index_answer(runs, halved, results, out, sections)
     index_body += _index_evidence(per_robot, out, sections) + _index_links(family_pages, sections)
     index = pages.write(out / "index.html", "fallbench report", index_body)
 
-    summary = _summary_answer(runs, halved, results, per_robot, sections.failed)
+    summary = _summary_answer(runs, halved, results, out, sections)
     summary += _summary_tables(sections) + _summary_files(family_pages, sections)
     (out / "summary.md").write_text("\n".join(summary) + "\n")
-    return (
-        [index, out / "summary.md"]
-        + family_pages
-        + sections.strip_paths
-        + sections.figure_paths
-        + sections.sweep_paths
-        + sections.pre_paths
-        + sections.sensitivity_paths
-    )
+    files = [index, out / "summary.md", *family_pages]
+    return files + list(dict.fromkeys(p for paths in sections.drawn.paths.values() for p in paths))

@@ -4,15 +4,30 @@ right-leg pitch torques (Fig. 4) and the adaptive gains K, B (Fig. 5). `leg` map
 
 from __future__ import annotations
 
+from functools import cache
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from fallbench.report.stats import natural_key
 from fallbench.report.style import colour, ordered
+from fallbench.robots import DEFAULT_ROBOT
 
 GAINS_ZOOM = 0.25  # s after impact shown in Fig. 5's landing column (002's Fig. 5 spans about this)
+DPI = 110
+_VECTOR = [False]  # whether `_save` also writes an SVG (`fallbench report --svg`); set per process
+
+
+class FigureSkipped(RuntimeError):
+    """A figure that cannot be drawn (no OpenGL context, no replay): its message is the note."""
+
+
+def set_vector(vector: bool) -> bool:
+    """Write an SVG next to each PNG from now on (in this process), or not; returns the setting before."""
+    before, _VECTOR[0] = _VECTOR[0], vector
+    return before
 
 
 def _impact_line(ax, impact: float) -> None:
@@ -21,10 +36,11 @@ def _impact_line(ax, impact: float) -> None:
 
 
 def _save(fig, out: Path, stem: str) -> list[Path]:
+    """Write the figure as `<stem>.png` (and `<stem>.svg` after `set_vector(True)`), then close it."""
     fig.tight_layout()
-    paths = [out / f"{stem}.png", out / f"{stem}.svg"]
+    paths = [out / f"{stem}.png"] + ([out / f"{stem}.svg"] if _VECTOR[0] else [])
     for path in paths:
-        fig.savefig(path, dpi=110)
+        fig.savefig(path, dpi=DPI)
     plt.close(fig)
     return paths
 
@@ -145,3 +161,69 @@ def gains_figure(
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"{title}: adaptive_qp gains, right leg (cf. 002 Fig. 5)")
     return _save(fig, out, stem)
+
+
+# ---------------------------------------------------------------- per point: the figures of 002
+
+NEEDED_SERIES = ("t", "imu_acc_z")  # plus the right leg's q: and tau: columns (the robot's own names)
+
+
+@cache
+def leg_limits(robot: str) -> tuple[dict[str, str], tuple[float, float], dict[str, float]]:
+    """A robot's right-leg pitch joints, its knee range (rad, from the URDF) and their torque limits (Nm)."""
+    from fallbench.scenario import Scenario
+    from fallbench.sim.world import build_world
+
+    world = build_world(Scenario(name="limits", duration=1.0, robot=robot))
+    leg = world.robot.leg_pitch("right")
+    low, high = world.joint_range[world.joint_names.index(leg["knee"])]
+    return (
+        leg,
+        (float(low), float(high)),
+        {j: float(world.torque_limit[world.joint_names.index(j)]) for j in leg.values()},
+    )
+
+
+def paper_points(runs: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """The points that can have 002's figures, as (point, its runs): successful runs without a
+    pre-impact strategy (002 compares gain policies alone) under more than one policy, at the
+    smallest seed of their robot and family (a randomised family gets one seed's points, not one
+    per seed). Whether the runs' time series hold the columns is checked when drawing."""
+    ok = runs[(runs.status == "ok") & (runs.pre_impact == "none")]
+    if ok.empty:
+        return []
+    robots = ok.robot if "robot" in ok else pd.Series("", index=ok.index)
+    first_seed = ok.groupby([robots, ok.scenario]).seed.transform("min")
+    ok = ok[ok.seed == first_seed]
+    points = []
+    for (_, point), group in ok.groupby([robots[ok.index], ok.point], sort=False):
+        if group.policy.nunique() > 1:
+            points.append((point, group.drop_duplicates("policy")))
+    return sorted(points, key=lambda item: natural_key(item[0]))
+
+
+def point_stem(point: str, robot: str) -> str:
+    stem = "".join(c if c.isalnum() else "_" for c in point).strip("_")
+    return stem if robot in ("", DEFAULT_ROBOT) else f"{stem}_{robot}"
+
+
+def draw_paper_figures(rows: pd.DataFrame, results: Path, out: Path, point: str) -> list[Path]:
+    """Figs. 6a, 6b, 4 (and 5 with `adaptive_qp`) of one point from its runs' time series."""
+    from fallbench.results import store
+
+    robot = str(rows.robot.iloc[0]) if "robot" in rows else DEFAULT_ROBOT
+    leg, knee_limits, limits = leg_limits(robot)
+    series = {row.policy: store.load_timeseries(results, row.run_id) for row in rows.itertuples()}
+    needed = [*NEEDED_SERIES, *(f"q:{j}" for j in leg.values()), *(f"tau:{j}" for j in leg.values())]
+    lacking = sorted({c for ts in series.values() for c in needed if c not in ts})
+    if lacking:
+        raise FigureSkipped(f"{point}: the time series lack {', '.join(lacking)}")
+    stem = point_stem(point, robot)
+    paths = imu_figure(series, rows, point, out, f"fig6a_{stem}")
+    paths += knee_figure(series, rows, knee_limits, point, out, f"fig6b_{stem}", leg)
+    paths += torque_figure(series, rows, limits, point, out, f"fig4_{stem}", leg)
+    gains = [f"{k}:{j}" for k in ("K", "B") for j in leg.values()]
+    if "adaptive_qp" in series and all(c in series["adaptive_qp"] for c in gains):
+        impact = rows.loc[rows.policy == "adaptive_qp", "impact_time"].iloc[0]
+        paths += gains_figure(series["adaptive_qp"], impact, point, out, f"fig5_{stem}", leg)
+    return paths

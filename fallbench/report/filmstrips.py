@@ -1,52 +1,107 @@
-"""Which falls the report shows as filmstrips, and rendering them (skipped, with the reason, when
-there is no OpenGL context)."""
+"""Which falls the report shows as filmstrips, chosen by the data, not by scenario names.
+
+A run's **damage** is a number in [0, 1] within its robot and scenario family: the mean, over the
+family's damage measures (`measures_for`: landing IMU z peak, head and torso peak forces,
+knee margin, joints past a limit, vulnerable parts hit, fell), of the run's percentile rank among
+the family's successful runs on that measure, oriented so that 1 is the most damage (the lowest
+knee margin, the highest peaks and counts, a fall). Ties share their mean rank; a measure the run
+lacks (NaN) is left out of its mean.
+
+For each (pre-impact strategy, gain policy) of a family the report shows two falls: the **typical**
+one, the run whose damage is nearest the median damage of that strategy and policy's runs in the
+family (ties: the smaller run id), and the **worst** one, its run of the highest damage (the same
+run once when they coincide, e.g. one run per strategy and policy)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
+from fallbench.report.drawing import Figure
+from fallbench.report.figures import FigureSkipped
+from fallbench.report.ranking import arm_order, families, measures_for, robots
 from fallbench.report.render import RenderUnavailable, ReplayMissing, filmstrip
-from fallbench.report.style import ordered
-from fallbench.robots import DEFAULT_ROBOT
-
-HEIGHT, DIRECTION = "param:initial.height", "param:push.direction"
-RESHAPED_FALLS = ("push_200N", (0.0, 180.0), "stiff")  # family, push directions, policy: none vs reshape
 
 
-def chosen_runs(runs: pd.DataFrame) -> dict[str, pd.DataFrame]:
-    """Caption -> runs: the 1 m drop of 002 under each policy (seed 0) on each robot, and 000/002's
-    200 N front and back pushes with and without reshaping (default robot)."""
-    ok = runs[(runs.status == "ok") & (runs.seed == 0)]
-    chosen: dict[str, pd.DataFrame] = {}
-    if HEIGHT in ok:
-        drops = ok[(ok.scenario == "drop") & (ok[HEIGHT] == 1.0) & (ok.pre_impact == "none")]
-        robots = drops.robot if "robot" in drops else pd.Series("", index=drops.index)
-        for robot, drop in drops.groupby(robots):
-            rank = {policy: i for i, policy in enumerate(ordered(drop.policy))}
-            chosen[f"The 1 m drop of 002 {robot}, each gain policy".replace("  ", " ")] = drop.sort_values(
-                "policy", key=lambda p: p.map(rank)
-            )
-    family, directions, policy = RESHAPED_FALLS
-    if DIRECTION in ok:
-        pushes = ok[(ok.scenario == family) & ok[DIRECTION].isin(directions) & (ok.policy == policy)]
-        pushes = pushes[pushes.robot == DEFAULT_ROBOT] if "robot" in pushes else pushes
-        if len(pushes):
-            chosen[f"{family}, {policy}: front and back pushes, none vs reshape"] = pushes.sort_values(
-                [DIRECTION, "pre_impact"]
+@dataclass(frozen=True)
+class Pick:
+    """One representative fall of a (strategy, policy) in a family."""
+
+    robot: str
+    family: str
+    pre_impact: str
+    policy: str
+    role: str  # "typical" or "worst"
+    run_id: str
+    damage: float
+    point: str
+
+
+def damage(family: pd.DataFrame) -> pd.Series:
+    """Each successful run's damage in [0, 1] (see the module's docstring), indexed like `family`."""
+    ok = family[family.status == "ok"]
+    ranks = []
+    for measure in measures_for(ok):
+        values = ok[measure.column].astype(float)
+        if values.notna().sum() == 0:
+            continue
+        # pct ranks: (1..n)/n; higher value = more damage unless higher is better (knee margin)
+        rank = values.rank(pct=True, ascending=measure.lower_is_better)
+        ranks.append(rank.rename(measure.column))
+    if not ranks:
+        return pd.Series(float("nan"), index=ok.index)
+    return pd.concat(ranks, axis=1).mean(axis=1, skipna=True)
+
+
+def picks(runs: pd.DataFrame) -> list[Pick]:
+    """Per robot and family (the report's grouping), per (strategy, policy) in ranking order: the
+    typical and the worst fall."""
+    chosen: list[Pick] = []
+    for robot, robot_runs in robots(runs).items():
+        for family in families(robot_runs):
+            group = robot_runs[robot_runs.scenario == family]
+            chosen += family_picks(robot, family, group, arm_order(group))
+    return chosen
+
+
+def family_picks(robot: str, family: str, group: pd.DataFrame, arms: list[tuple[str, str]]) -> list[Pick]:
+    """The typical and the worst fall of each (strategy, policy) in `arms` (best first) of one family."""
+    scores = damage(group).dropna()
+    if scores.empty:
+        return []
+    scored = group.loc[scores.index].assign(damage=scores)
+    chosen = []
+    for strategy, policy in arms:
+        arm = scored[(scored.pre_impact == strategy) & (scored.policy == policy)].sort_values("run_id")
+        if arm.empty:
+            continue
+        typical = (arm.damage - arm.damage.median()).abs().idxmin()  # first of ties: the smaller id
+        worst = arm.damage.idxmax()
+        for role, index in (("typical", typical), ("worst", worst)):
+            if role == "worst" and index == typical:
+                continue
+            row = arm.loc[index]
+            chosen.append(
+                Pick(robot, family, strategy, policy, role, row.run_id, float(row.damage), row.point)
             )
     return chosen
 
 
-def render_filmstrips(runs: pd.DataFrame, results: Path, out: Path) -> tuple[dict[str, list[Path]], str]:
-    """Caption -> filmstrip PNGs, and a note: empty, or why there are none."""
-    strips: dict[str, list[Path]] = {}
+def draw_filmstrip(results: Path, run_id: str, out: Path) -> list[Path]:
+    """One run's filmstrip; a run that cannot be rendered is skipped with the reason."""
     try:
-        for caption, chosen in chosen_runs(runs).items():
-            strips[caption] = [filmstrip(results, run_id, out) for run_id in chosen.run_id]
-    except RenderUnavailable as exc:
-        return {}, f"filmstrips skipped: {exc}"
-    except ReplayMissing as exc:
-        return strips, f"some filmstrips skipped: {exc}"
-    return strips, ""
+        return [filmstrip(results, run_id, out)]
+    except (RenderUnavailable, ReplayMissing) as exc:
+        raise FigureSkipped(str(exc)) from None
+
+
+def figure_name(run_id: str) -> str:
+    return f"filmstrip:{run_id}"
+
+
+def filmstrip_figures(chosen: list[Pick], results: Path, out: Path) -> list[Figure]:
+    """One figure per chosen run (a run chosen twice is drawn once)."""
+    run_ids = list(dict.fromkeys(p.run_id for p in chosen))
+    return [Figure(figure_name(r), draw_filmstrip, (results, r, out), (r,)) for r in run_ids]

@@ -251,18 +251,29 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     return _save(fig, out, stem)
 
 
-def preimpact_report(
-    runs: pd.DataFrame, results: Path, out: Path
-) -> tuple[list[Path], dict[str, pd.DataFrame]]:
-    paths = first_impact_figure(runs, out)
-    front_back = runs[(runs.scenario == "push_200N") & (runs.seed == 0)]
-    if DIRECTION in front_back:
-        for point in sorted(front_back.loc[front_back[DIRECTION].isin([0, 180]), "point"].unique()):
-            paths += reshaped_fall_figure(runs, results, out, point, "stiff")
-    tables = {
+def reshape_points(picks) -> list[tuple[str, str]]:
+    """(point, policy) of the falls the reshaped-fall figure shows: each family's typical and worst
+    `reshape` falls (`filmstrips.picks`) under `stiff` (any policy when the family has no stiff),
+    against `none` on the same point."""
+    chosen = [p for p in picks if p.pre_impact == "reshape"]
+    families = {(p.robot, p.family) for p in chosen}
+    shown = []
+    for robot, family in sorted(families):
+        mine = [p for p in chosen if (p.robot, p.family) == (robot, family)]
+        policy = "stiff" if any(p.policy == "stiff" for p in mine) else mine[0].policy
+        shown += [(p.point, policy) for p in mine if p.policy == policy]
+    return list(dict.fromkeys(shown))
+
+
+def draw_reshaped_falls(rows: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
+    """`reshaped_fall_figure` as a report figure job (`rows`: the point's runs)."""
+    return reshaped_fall_figure(rows, results, out, point, policy)
+
+
+def preimpact_tables(runs: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    return {
         "First impact and head/torso peak forces of pushes, per push direction": first_impact_table(runs),
         "000's landing order per fall class (at impact), pushes": prescription_table(runs),
         "Fall detectors' lead time to the first impact, pushes without reshaping": detection_table(runs),
         "Landing among obstacles": clutter_table(runs),
     }
-    return paths, tables

@@ -84,9 +84,16 @@ def estimates(runs: pd.DataFrame) -> dict[tuple[str, str], dict[str, Estimate]]:
     }
 
 
-def _ranked(
-    runs: pd.DataFrame,
-) -> tuple[pd.DataFrame, dict[tuple[str, str], dict[str, Estimate]], list[Measure]]:
+Ranked = tuple[pd.DataFrame, dict[tuple[str, str], dict[str, Estimate]], list[Measure]]
+
+
+def ranked(runs: pd.DataFrame) -> Ranked:
+    """The ranking table, the estimates behind it and the measures: computed once per family and
+    handed to `verdict` and `arm_order` (each bootstrap costs milliseconds)."""
+    return _ranked(runs)
+
+
+def _ranked(runs: pd.DataFrame) -> Ranked:
     found = measures_for(runs)
     table = estimates(runs)
     if not table:
@@ -111,6 +118,12 @@ def _ranked(
     return ranking, table, found
 
 
+def arm_order(runs: pd.DataFrame, done: Ranked | None = None) -> list[tuple[str, str]]:
+    """The (strategy, policy) pairs of `runs` in the ranking table's order, best first."""
+    table = (done or _ranked(runs))[0]
+    return list(zip(table.pre_impact, table.policy)) if len(table) else []
+
+
 def ranking_table(runs: pd.DataFrame) -> pd.DataFrame:
     """One row per (strategy, policy), best first: mean rank over the damage measures (1 = least
     damage on every measure; ties share a rank), runs, and each measure's median [95 % CI]
@@ -118,10 +131,10 @@ def ranking_table(runs: pd.DataFrame) -> pd.DataFrame:
     return _ranked(runs)[0]
 
 
-def verdict(runs: pd.DataFrame) -> str:
+def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
     """One line: the arm with the best mean rank, and on which measures its interval is clear of
     the runner-up's (otherwise the data do not separate them)."""
-    table, est, found = _ranked(runs)
+    table, est, found = done or _ranked(runs)
     if len(table) == 0:
         return "no successful runs"
     best = table.iloc[0]
@@ -155,19 +168,20 @@ def relative_changes(runs: pd.DataFrame) -> pd.DataFrame:
     ok = runs[runs.status == "ok"]
     columns = [c for c in (*RELATIVE_MEASURES, *COUNT_MEASURES) if c in ok]
     key = ["robot", "point"] if "robot" in ok else ["point"]
-    reference = (
-        ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])]
-        .set_index(key)[columns]
-        .astype(float)
-    )
+    reference = ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])][key + columns]
     if reference.empty or not columns:
         return pd.DataFrame()
+    reference = reference.drop_duplicates(key)
     rows = []
     for strategy, policy in _arms(ok):
         if (strategy, policy) == REFERENCE:
             continue
-        arm = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].set_index(key)[columns].astype(float)
-        ref = reference.reindex(arm.index)
+        # each run of the arm with its reference run's values (NaN where the point has none)
+        joined = ok[(ok.pre_impact == strategy) & (ok.policy == policy)][key + columns].merge(
+            reference, on=key, how="left", suffixes=("", ":reference")
+        )
+        arm = joined[columns].astype(float)
+        ref = joined[[f"{c}:reference" for c in columns]].astype(float).set_axis(columns, axis=1)
         row: dict[str, object] = {
             "pre_impact": strategy,
             "policy": policy,

@@ -101,6 +101,8 @@ TARGETS: dict[str, tuple[str, str, float]] = {
     "100-run sweep, 2 jobs vs 1, whole command": ("e2e_speedup_100", ">=", 1.9),
     "`run one`, whole command (s)": ("run_one_s", "<=", 1.0),
     "store: add one run, worst of the adds (s)": ("store_add_one_s_max", "<=", 2.0),
+    "report of the given store, cold (s)": ("report_cold_s", "<=", 30.0),
+    "report of the given store, warm (s)": ("report_warm_s", "<=", 10.0),
     "store: grouped query (s)": ("store_query_s_median", "<=", 1.0),
     "Gymnasium env: time added to its physics (fraction)": ("env_overhead", "<=", 0.30),
 }
@@ -408,6 +410,22 @@ def command_figures(
     return figures
 
 
+def report_figures(results: Path, jobs: int, progress: Callable[[str], None]) -> dict[str, float]:
+    """`fallbench report` of the store `results` as a whole command (fresh interpreter, start-up
+    included) with `jobs` drawing processes: cold into an empty folder, then warm into the same
+    folder (every figure's runs unchanged, so none is drawn again)."""
+    cli = [sys.executable, "-m", "fallbench.cli", "report", "--results", str(results), "--no-progress"]
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder) / "report"
+        command = cli + ["--out", str(out), "--jobs", str(jobs)]
+        progress(f"report of {results}: cold")
+        cold = _command_s(command)
+        progress(f"report of {results}: warm")
+        warm = _command_s(command)
+        files = sum(1 for p in out.iterdir() if not p.name.startswith("."))
+    return {"report_jobs": jobs, "report_cold_s": cold, "report_warm_s": warm, "report_files": files}
+
+
 def _synthetic_rows(template: dict[str, Any], first: int, count: int, seed: int) -> Any:
     """`count` metric rows shaped like `template` (a real run's row): 20 scenarios x 2 strategies
     x 4 policies, metrics scattered around the template's values."""
@@ -532,9 +550,12 @@ def run_bench(
     env_scenario: Path | None = None,
     env_robot: str | None = None,
     env_episodes: int = 4,
+    report_store: Path | None = None,
+    report_jobs: int = 2,
 ) -> dict[str, Any]:
     """Every figure as one flat dict (keys documented in docs/bench.md); `store_runs` 0, an empty
-    `e2e_runs` or no `env_scenario` leaves those parts out."""
+    `e2e_runs` or no `env_scenario` leaves those parts out; `report_store`: a results store whose
+    report is timed."""
     figures: dict[str, Any] = {"scenario": point.label, "pre_impact": pre_impact, "cpu_count": os.cpu_count()}
     progress("warming up")
     warm = simulate_named(point.scenario, "stiff", pre_impact)
@@ -571,6 +592,8 @@ def run_bench(
         progress(f"Gymnasium environment: {env_episodes} episodes of {env_scenario}")
         env = environment_figures(env_scenario, env_robot, env_episodes)
         figures.update(env | ({"env_scenario": str(env_scenario)} if env else {}))
+    if report_store is not None:
+        figures.update(report_figures(report_store, report_jobs, progress))
     for key, comparison, limit in TARGETS.values():
         if key in figures:
             value = figures[key]
@@ -667,6 +690,17 @@ def _store_lines(figures: dict[str, Any]) -> list[str]:
     ]
 
 
+def _report_lines(figures: dict[str, Any]) -> list[str]:
+    """The report's time, cold and warm, when measured."""
+    if "report_cold_s" not in figures:
+        return []
+    return [
+        f"`fallbench report` ({figures['report_jobs']} jobs, whole command, {figures['report_files']} files): "
+        f"cold {figures['report_cold_s']:.1f} s, warm (no run changed) {figures['report_warm_s']:.1f} s.",
+        "",
+    ]
+
+
 def _target_lines(figures: dict[str, Any]) -> list[str]:
     """The targets table: each measured figure against its limit."""
     lines = ["| target | measured | of which the QP solver alone | limit | met |", "|---|---|---|---|---|"]
@@ -685,4 +719,5 @@ def markdown(figures: dict[str, Any]) -> str:
     """The figures of `run_bench` as the Markdown of reports/bench.md."""
     lines = _policy_lines(figures) + _qp_lines(figures) + _sweep_lines(figures) + _store_lines(figures)
     lines += _environment_lines(figures)
+    lines += _report_lines(figures)
     return "\n".join(lines + _target_lines(figures)) + "\n"

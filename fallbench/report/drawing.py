@@ -1,0 +1,264 @@
+"""Drawing the report's figures: in parallel worker processes, and only those whose inputs changed.
+
+Each figure is a `Figure`: a module-level function, its arguments (tables of metric rows, names)
+and the ids of the runs whose stored files it reads. Its cache key is a BLAKE2 digest of
+
+- the report's code version (the bytes of every `fallbench/report/*.py`, fallbench's and
+  matplotlib's versions) and whether vector files are written (`--svg`);
+- the function's name and its arguments (DataFrames by content: `pandas.util.hash_pandas_object`
+  of every cell, plus the column names);
+- the content of every run it reads: the bytes of each file in the run's folder.
+
+The cache (`.figure-cache.json` in the report folder) maps each figure's name to its key and
+files. A figure whose key is unchanged and whose files are all present is not drawn again. File
+digests are remembered by (path, size, modification time), so a warm report reads no run file
+again; a run written anew (another size or time) is read and hashed again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from fallbench.report.figures import FigureSkipped, set_vector
+from fallbench.results import store
+
+CACHE_FILE = ".figure-cache.json"
+PAYLOADS = ".figure-cache"  # folder of the cached payloads (pickles), one per key
+CACHE_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One figure (or a few files drawn together): `draw(*args)` writes them and returns their
+    paths, or (paths, payload) with a picklable payload (e.g. the tables computed with them), which
+    is cached with the files."""
+
+    name: str  # unique within a report, e.g. "002:drop#height=1"
+    draw: Callable[..., list[Path]]
+    args: tuple = ()
+    run_ids: tuple[str, ...] = ()  # runs whose stored files `draw` reads
+
+
+@dataclass
+class Drawn:
+    """What drawing a list of figures gave: files per figure name, notes (e.g. why a filmstrip is
+    missing), and how many were drawn and how many were taken from the cache."""
+
+    paths: dict[str, list[Path]] = field(default_factory=dict)
+    notes: dict[str, str] = field(default_factory=dict)
+    payloads: dict[str, Any] = field(default_factory=dict)  # what a job returned besides its files
+    cpu_s: dict[str, float] = field(default_factory=dict)  # CPU time of each figure drawn (s)
+    drawn: int = 0
+    cached: int = 0
+
+
+@cache
+def code_version() -> str:
+    """The report's code and style: a digest of fallbench/report/*.py and the library versions."""
+    import matplotlib
+
+    import fallbench
+
+    digest = hashlib.blake2b(digest_size=16)
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        digest.update(path.name.encode() + path.read_bytes())
+    digest.update(f"{getattr(fallbench, '__version__', '')}|{matplotlib.__version__}".encode())
+    return digest.hexdigest()
+
+
+def _value_digest(value: Any, digest: Any) -> None:
+    """Feed one argument into `digest`: tables by content, paths by nothing (the runs they hold
+    are keyed by `run_ids`; the output folder is the cache's own), everything else by repr."""
+    if isinstance(value, pd.DataFrame):
+        digest.update(repr(list(value.columns)).encode())
+        digest.update(pd.util.hash_pandas_object(value.astype(object), index=False).to_numpy().tobytes())
+    elif isinstance(value, pd.Series):
+        _value_digest(value.to_frame(), digest)
+    elif isinstance(value, Path):
+        digest.update(b"<path>")
+    elif isinstance(value, (list, tuple)):
+        for item in value:
+            _value_digest(item, digest)
+    else:
+        digest.update(repr(value).encode())
+
+
+class _RunDigests:
+    """Content digests of run folders, remembered by (path, size, mtime) across reports."""
+
+    def __init__(self, results: Path, known: dict[str, list]) -> None:
+        self.results = results
+        self.known = known  # "runs/<id>/<file>" -> [size, mtime_ns, digest]
+        self.used: dict[str, list] = {}
+
+    def of(self, run_id: str) -> str:
+        digest = hashlib.blake2b(digest_size=16)
+        folder = store.run_dir(self.results, run_id)
+        for path in sorted(folder.iterdir()) if folder.is_dir() else []:
+            digest.update(path.name.encode() + self._file(path).encode())
+        return digest.hexdigest()
+
+    def _file(self, path: Path) -> str:
+        stat = path.stat()
+        name = str(path.relative_to(self.results))
+        entry = self.known.get(name)
+        if entry is None or entry[:2] != [stat.st_size, stat.st_mtime_ns]:
+            entry = [stat.st_size, stat.st_mtime_ns, _file_digest(path)]
+        self.used[name] = entry
+        return entry[2]
+
+
+def _file_digest(path: Path) -> str:
+    digest = hashlib.blake2b(digest_size=16)
+    with open(path, "rb") as handle:
+        while chunk := handle.read(1 << 20):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def figure_key(figure: Figure, runs: _RunDigests, vector: bool) -> str:
+    digest = hashlib.blake2b(digest_size=16)
+    digest.update(f"{code_version()}|{vector}|{figure.name}|".encode())
+    digest.update(f"{figure.draw.__module__}.{figure.draw.__qualname__}".encode())
+    _value_digest(figure.args, digest)
+    for run_id in figure.run_ids:
+        digest.update(run_id.encode() + runs.of(run_id).encode())
+    return digest.hexdigest()
+
+
+def _load_cache(out: Path) -> dict[str, Any]:
+    try:
+        cached = json.loads((out / CACHE_FILE).read_text())
+    except (OSError, ValueError):
+        return {"format": CACHE_FORMAT, "figures": {}, "files": {}}
+    return (
+        cached
+        if cached.get("format") == CACHE_FORMAT
+        else {"format": CACHE_FORMAT, "figures": {}, "files": {}}
+    )
+
+
+Outcome = tuple[list[Path], str, Any, float]  # files, note ("" or why skipped), payload, CPU s
+
+
+def _draw_one(figure: Figure, vector: bool) -> Outcome:
+    """In a worker: draw one figure; also returns the CPU time it took (s, this process's threads)."""
+    before = set_vector(vector)
+    started = time.process_time()
+    try:
+        drawn = figure.draw(*figure.args)
+    except FigureSkipped as exc:
+        return [], str(exc), None, time.process_time() - started
+    except FileNotFoundError as exc:  # a run stored without its time series (or since deleted)
+        return [], f"{figure.name}: skipped, {exc.filename or exc} is missing", None, 0.0
+    finally:
+        set_vector(before)  # drawing in this process leaves its setting as it was
+    cpu = time.process_time() - started
+    if isinstance(drawn, tuple):
+        return list(drawn[0]), "", drawn[1], cpu
+    return list(drawn), "", None, cpu
+
+
+def _run_all(todo: list[Figure], vector: bool, jobs: int) -> list[Outcome]:
+    """Draw `todo`: in this process with one job, else on `jobs` worker processes (loky)."""
+    if jobs <= 1 or len(todo) <= 1:
+        return [_draw_one(figure, vector) for figure in todo]
+    from joblib import Parallel, delayed
+
+    return Parallel(n_jobs=min(jobs, len(todo)), backend="loky")(
+        delayed(_draw_one)(figure, vector) for figure in todo
+    )
+
+
+def draw(
+    figures: Iterable[Figure],
+    results: Path,
+    out: Path,
+    jobs: int = 1,
+    vector: bool = False,
+    progress: Callable[[int], None] | None = None,
+) -> Drawn:
+    """Draw the figures whose cache key changed or whose files are missing, take the others from the
+    cache in `out`; returns every figure's files (in the order given) and the notes."""
+    figures = list(figures)
+    if len({f.name for f in figures}) != len(figures):
+        raise ValueError("figure names must be unique within a report")
+    cached = _load_cache(out)
+    digests = _RunDigests(results, cached["files"])
+    keys = {f.name: figure_key(f, digests, vector) for f in figures}
+    result = Drawn()
+    todo = []
+    for figure in figures:
+        entry = cached["figures"].get(figure.name)
+        if entry and entry["key"] == keys[figure.name] and _complete(out, entry):
+            result.paths[figure.name] = [out / p for p in entry["files"]]
+            if entry.get("note"):
+                result.notes[figure.name] = entry["note"]
+            if entry.get("payload"):
+                result.payloads[figure.name] = pd.read_pickle(out / entry["payload"])
+            result.cached += 1
+        else:
+            todo.append(figure)
+    for figure, (paths, note, payload, cpu) in zip(todo, _run_all(todo, vector, jobs)):
+        result.paths[figure.name] = paths
+        result.cpu_s[figure.name] = cpu
+        if note:
+            result.notes[figure.name] = note
+        if payload is not None:
+            result.payloads[figure.name] = payload
+            pd.to_pickle(payload, _payload_path(out, keys[figure.name]))
+    result.drawn = len(todo)
+    if progress:
+        progress(result.drawn)
+    entries = {
+        f.name: {
+            "key": keys[f.name],
+            "files": [str(p.relative_to(out)) for p in result.paths[f.name]],
+            "note": result.notes.get(f.name, ""),
+            "cpu_s": round(result.cpu_s.get(f.name, cached["figures"].get(f.name, {}).get("cpu_s", 0.0)), 3),
+            "payload": str(_payload_path(out, keys[f.name]).relative_to(out))
+            if f.name in result.payloads
+            else "",
+        }
+        for f in figures
+        if not _unavailable(result.notes.get(f.name, ""))
+    }
+    _save_cache(out, {"format": CACHE_FORMAT, "figures": entries, "files": digests.used})
+    kept = {e["payload"] for e in entries.values() if e["payload"]}
+    for stale in (out / PAYLOADS).glob("*.pkl") if (out / PAYLOADS).is_dir() else []:
+        if str(stale.relative_to(out)) not in kept:
+            stale.unlink()
+    result.paths = {f.name: result.paths[f.name] for f in figures}
+    return result
+
+
+def _complete(out: Path, entry: dict[str, Any]) -> bool:
+    files = entry["files"] + ([entry["payload"]] if entry.get("payload") else [])
+    return all((out / p).exists() for p in files)
+
+
+def _payload_path(out: Path, key: str) -> Path:
+    folder = out / PAYLOADS
+    folder.mkdir(exist_ok=True)
+    return folder / f"{key}.pkl"
+
+
+def _unavailable(note: str) -> bool:
+    """A note of a missing OpenGL context is not cached: the next report may have one."""
+    return note.startswith("no OpenGL")
+
+
+def _save_cache(out: Path, cached: dict[str, Any]) -> None:
+    tmp = out / f".{CACHE_FILE}.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps(cached))
+    os.replace(tmp, out / CACHE_FILE)

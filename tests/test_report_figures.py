@@ -1,0 +1,249 @@
+"""The report's pictures chosen by the data (filmstrip picks on scenario names of a user's own), the
+forest plot's numbers on hand-computable rows, the figure cache (a changed run is drawn again, an
+unchanged one is not) and PNG by default, SVG with `--svg`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from fallbench.cli import app
+from fallbench.report import drawing
+from fallbench.report.filmstrips import damage, picks
+from fallbench.report.forest import paired_changes
+from fallbench.results import store
+
+
+def _row(run_id: str, family: str, point: str, seed: int, strategy: str, policy: str, **metrics) -> dict:
+    return {
+        "run_id": run_id,
+        "robot": "talos",
+        "scenario": family,
+        "point": point,
+        "seed": seed,
+        "status": "ok",
+        "error": "",
+        "pre_impact": strategy,
+        "policy": policy,
+    } | metrics
+
+
+def test_filmstrips_pick_each_arms_typical_and_worst_fall_under_any_name() -> None:
+    """One damage measure (head force): damage is its percentile rank in the family; typical = nearest
+    the arm's median damage, worst = the arm's highest."""
+    heads = {("none", "stiff"): [100.0, 500.0, 300.0], ("reshape", "zero"): [600.0, 200.0, 400.0]}
+    rows = [
+        _row(
+            f"{s[0]}{p[0]}{seed}",
+            "my_own_fall",
+            f"my_own_fall#s{seed}",
+            seed,
+            s,
+            p,
+            contact_force_peak_head=v,
+        )
+        for (s, p), values in heads.items()
+        for seed, v in enumerate(values)
+    ]
+    runs = pd.DataFrame(rows)
+    scores = damage(runs)
+    assert scores.tolist() == [1 / 6, 5 / 6, 3 / 6, 1.0, 2 / 6, 4 / 6]
+    chosen = {(p.pre_impact, p.policy, p.role): p for p in picks(runs)}
+    assert {k: p.run_id for k, p in chosen.items()} == {
+        ("none", "stiff", "typical"): "ns2",  # 300 N: the arm's median
+        ("none", "stiff", "worst"): "ns1",  # 500 N
+        ("reshape", "zero", "typical"): "rz2",  # 400 N
+        ("reshape", "zero", "worst"): "rz0",  # 600 N
+    }
+    assert chosen[("none", "stiff", "worst")].family == "my_own_fall"
+    assert chosen[("none", "stiff", "worst")].damage == pytest.approx(5 / 6)
+
+
+def test_damage_orients_every_measure_toward_more_damage() -> None:
+    """A lower knee margin and a fall are more damage; the damage is the mean over the measures."""
+    runs = pd.DataFrame(
+        [
+            _row("a", "f", "f#s0", 0, "none", "stiff", knee_limit_margin=0.5, fell=False),
+            _row("b", "f", "f#s1", 1, "none", "stiff", knee_limit_margin=-0.1, fell=True),
+        ]
+    )
+    assert damage(runs).tolist() == [0.5, 1.0]  # a: (0.5 + 0.5) / 2 (fell ties), b: (1 + 1) / 2
+
+
+def _forest_runs() -> pd.DataFrame:
+    """Three points x one seed: none+stiff, none+zero (head force reference + 10, 20, 30 N; fell on
+    one of three), and a point only `zero` ran (no pair, left out)."""
+    rows = []
+    for k, (reference, change) in enumerate([(100.0, 10.0), (200.0, 30.0), (300.0, 20.0)]):
+        point = f"lab[x={k}]#s0"
+        rows.append(
+            _row(f"s{k}", "lab", point, 0, "none", "stiff", contact_force_peak_head=reference, fell=False)
+        )
+        rows.append(
+            _row(
+                f"z{k}",
+                "lab",
+                point,
+                0,
+                "none",
+                "zero",
+                contact_force_peak_head=reference + change,
+                fell=k == 1,
+            )
+        )
+    rows.append(
+        _row("z9", "lab", "lab[x=9]#s0", 0, "none", "zero", contact_force_peak_head=5000.0, fell=True)
+    )
+    return pd.DataFrame(rows[::-1])  # order does not matter: pairs are by point and seed
+
+
+def test_forest_plot_numbers_are_paired_changes_against_none_stiff() -> None:
+    changes = paired_changes(_forest_runs()).set_index(["policy", "measure"])
+    assert ("stiff", "contact_force_peak_head") not in changes.index  # the reference is the zero line
+    head = changes.loc[("zero", "contact_force_peak_head")]
+    assert head.value == 20.0 and head.pairs == 3 and head.reference == 200.0  # median of 10, 30, 20
+    assert 10.0 <= head.low <= 20.0 <= head.high <= 30.0 and head.unit == "N"
+    fell = changes.loc[("zero", "fell")]
+    assert fell.value == pytest.approx(1 / 3) and fell.pairs == 3  # the mean change of the fraction
+
+
+def test_forest_interval_is_the_bootstrap_of_the_differences() -> None:
+    runs = _forest_runs()
+    runs.loc[runs.run_id == "z1", "contact_force_peak_head"] = 210.0  # changes 10, 10, 20
+    head = paired_changes(runs).set_index(["policy", "measure"]).loc[("zero", "contact_force_peak_head")]
+    assert (head.value, head.low, head.high) == (10.0, 10.0, 20.0)
+
+
+# ---------------------------------------------------------------- the figure cache
+
+CALLS: list[str] = []
+
+
+def _count_and_write(out: Path, stem: str, text: str) -> list[Path]:
+    CALLS.append(stem)
+    path = out / f"{stem}.txt"
+    path.write_text(text)
+    return [path]
+
+
+def _store_with_runs(results: Path, ids: list[str]) -> None:
+    for rid in ids:
+        folder = store.run_dir(results, rid)
+        folder.mkdir(parents=True)
+        (folder / "timeseries.parquet").write_bytes(rid.encode() * 100)
+
+
+def test_a_figure_is_drawn_again_only_when_its_runs_or_arguments_change(tmp_path: Path) -> None:
+    results, out = tmp_path / "results", tmp_path / "out"
+    out.mkdir()
+    _store_with_runs(results, ["a", "b"])
+
+    def jobs(text: str = "x") -> list[drawing.Figure]:
+        return [
+            drawing.Figure("fig_a", _count_and_write, (out, "a", text), ("a",)),
+            drawing.Figure("fig_b", _count_and_write, (out, "b", "x"), ("b",)),
+        ]
+
+    CALLS.clear()
+    first = drawing.draw(jobs(), results, out)
+    assert (first.drawn, first.cached, sorted(CALLS)) == (2, 0, ["a", "b"])
+    again = drawing.draw(jobs(), results, out)
+    assert (again.drawn, again.cached, len(CALLS)) == (0, 2, 2) and again.paths == first.paths
+
+    CALLS.clear()
+    (store.run_dir(results, "a") / "timeseries.parquet").write_bytes(b"another fall")
+    changed = drawing.draw(jobs(), results, out)
+    assert (changed.drawn, CALLS) == (1, ["a"])  # only the figure of the changed run
+
+    CALLS.clear()
+    assert drawing.draw(jobs("y"), results, out).drawn == 1 and CALLS == ["a"]  # its arguments changed
+    (out / "b.txt").unlink()
+    CALLS.clear()
+    assert drawing.draw(jobs("y"), results, out).drawn == 1 and CALLS == ["b"]  # its file went missing
+    CALLS.clear()
+    assert drawing.draw(jobs("y"), results, out, vector=True).drawn == 2  # SVG wanted: drawn again
+
+
+# ---------------------------------------------------------------- the whole report
+
+
+def _synthetic_store(results: Path) -> None:
+    rng = np.random.default_rng(0)
+    for k in range(12):
+        strategy, policy = [("none", "stiff"), ("none", "zero"), ("reshape", "zero")][k % 3]
+        seed = k // 3
+        row = _row(
+            f"r{k:03d}",
+            "a_name_of_mine",
+            f"a_name_of_mine#s{seed}",
+            seed,
+            strategy,
+            policy,
+            **{"param:x": float(seed)},
+            imu_peak_z=100 + 10 * rng.random(),
+            contact_force_peak_head=1000 * rng.random(),
+            contact_force_peak_torso=500.0,
+            knee_limit_margin=0.3,
+            joint_limit_hits=0,
+            torque_demand_ratio_max=1.0,
+            contact_force_peak=2000.0,
+            fell=True,
+            vulnerable_hits=int(rng.integers(0, 3)),
+            impact_time=0.5,
+            first_impact_group="hands",
+            first_impact_safe=True,
+            obstacle_force_peak=0.0,
+            landing_error=np.nan,
+            time_to_first_impact=0.5,
+            contact_force_peak_bw=2.0,
+        )
+        store.write_run(results, row["run_id"], {"point": row["point"]}, row, None)
+    store.consolidate(results)
+
+
+def test_png_by_default_svg_on_request_and_forest_plots_on_top(tmp_path: Path) -> None:
+    results = tmp_path / "results"
+    _synthetic_store(results)
+    for options, out in (([], tmp_path / "png"), (["--svg"], tmp_path / "svg")):
+        done = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), *options])
+        assert done.exit_code == 0, done.output
+    assert list((tmp_path / "png").glob("*.png")) and not list((tmp_path / "png").glob("*.svg"))
+    assert {p.stem for p in (tmp_path / "svg").glob("*.svg")} == {
+        p.stem for p in (tmp_path / "svg").glob("*.png")
+    }
+    for page in ("index.html", "family_talos_a_name_of_mine.html"):
+        text = (tmp_path / "png" / page).read_text()
+        forest, table = text.index('src="forest_'), text.index("<table")
+        assert forest < table  # the figure first, the tables below
+    assert "![talos forest plot](forest_talos.png)" in (tmp_path / "png" / "summary.md").read_text()
+    again = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(tmp_path / "png")])
+    assert "0 figures drawn" in again.output
+
+
+@pytest.mark.slow
+def test_report_of_scenarios_with_names_of_their_own(tmp_path: Path, sweep) -> None:
+    """A drop under another name: filmstrips of each policy's typical fall, 002's figures, a forest plot."""
+    suite = tmp_path / "mine.yaml"
+    suite.write_text(
+        "name: my_drop\nduration: 0.8\ninitial: {height: 0.5}\nsweep:\n  initial.height: [0.5, 0.9]\n"
+    )
+    results, out = tmp_path / "results", tmp_path / "reports"
+    assert sweep(suite, results).exit_code == 0
+    done = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--jobs", "2"])
+    assert done.exit_code == 0, done.output
+    page = (out / "family_talos_my_drop.html").read_text()
+    assert 'src="forest_family_talos_my_drop.png"' in page
+    assert len(list(out.glob("fig6a_my_drop_initial_height_*.png"))) == 2
+    if "no OpenGL context" in page:
+        pytest.skip("no OpenGL context: filmstrips are skipped with the reason")
+    chosen = picks(store.load_metrics(results))
+    assert {(p.policy, p.role) for p in chosen if p.role == "typical"} == {
+        ("stiff", "typical"),
+        ("zero", "typical"),
+    }
+    assert {p.name for p in out.glob("filmstrip_*.png")} == {f"filmstrip_{p.run_id}.png" for p in chosen}
+    assert all(f'src="filmstrip_{p.run_id}.png"' in page for p in chosen)
