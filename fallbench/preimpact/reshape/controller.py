@@ -57,16 +57,26 @@ class ReshapeConfig:
     w_landing: float = 10.0  # each wrist toward its BIP, along the surface
     w_relative_distance: float = 10.0
     w_posture: float = 1.0
-    w_leg_posture: float = (
-        10.0  # the posture task's rows of the leg joints: a symmetric crouch, both knees together
-    )
+    # The posture task's rows of the leg joints: a symmetric crouch, both knees together. At 100 the
+    # legs hold their target against the arm and torso tasks' reaction through the floating base
+    # (front falls on scenarios/reshape_dev.yaml: both knees or the hands first in 18/22 falls,
+    # 13/22 at 10).
+    w_leg_posture: float = 100.0
     # The torso-orientation and wrist-landing tasks move the torso and arms only: the legs follow
     # the posture task alone, symmetric, so that both knees land together (000 Sec. IV-B: the two
     # feet, then the two knees at the same moment; 002 eq. 1's selection matrix S_M).
     landing_uses_legs: bool = False
     task_kp: float = 40.0  # 1/s^2, every task
     task_kv: float = 12.6  # 1/s, critically damped for task_kp
-    knee_bend: float = 1.6  # rad, knee target of the fall posture
+    knee_bend: float = 1.6  # rad, knee target of the fall posture (back falls; front with crouch_front)
+    # Front falls: the legs keep the starting posture unless this is set. A crouch brings the knees
+    # down before the hands, and the crouched robot rolls onto one knee: measured on
+    # scenarios/reshape_dev.yaml, one knee landed alone in 15 of 22 front falls with the 1.6 rad
+    # crouch (docs/methods/reshape.md).
+    crouch_front: bool = False
+    # Back falls: the elbow target as a fraction of the angle of highest manipulability (000
+    # Sec. IV-C: "not too small"); a straighter arm reaches below the buttocks in time.
+    elbow_back: float = 0.5
     # Side falls (class at detection left/right): a deeper crouch lowers the hip before it lands.
     knee_bend_side: float = 2.1  # rad
     # Front falls: both knees at the same height, with the legs (hips), so that they land together
@@ -92,6 +102,8 @@ class ReshapeConfig:
     def __post_init__(self) -> None:
         if self.pivot not in PIVOTS:
             raise ValueError(f"reshape: pivot must be one of {', '.join(PIVOTS)}, not {self.pivot!r}")
+        if not 0.0 <= self.elbow_back <= 1.0:
+            raise ValueError(f"reshape: elbow_back must be in [0, 1], not {self.elbow_back}")
 
 
 @dataclass
@@ -113,9 +125,14 @@ class ReshapeController:
         self.surfaces = scene_surfaces(scenario)
         start = {**robot.postures[scenario.initial.posture], **scenario.initial.joints}
         start = {j: start.get(j, 0.0) for j in world.joint_names}
-        self.postures = {}  # "side" and "front/back" fall postures
-        for kind, bend in (("front/back", self.cfg.knee_bend), ("side", self.cfg.knee_bend_side)):
-            target = fall_posture(self.P.model, robot, start, bend)
+        self.postures = {}  # "front", "back" and "side" fall postures
+        front_bend = self.cfg.knee_bend if self.cfg.crouch_front else None
+        for kind, bend, elbow in (
+            ("front", front_bend, 1.0),
+            ("back", self.cfg.knee_bend, self.cfg.elbow_back),
+            ("side", self.cfg.knee_bend_side, 1.0),
+        ):
+            target = fall_posture(self.P.model, robot, start, bend, elbow)
             self.postures[kind] = PostureTask(
                 np.array([target[j] for j in world.joint_names]), self.P.actuated_v, self.P.model.nv
             )
@@ -124,7 +141,7 @@ class ReshapeController:
             BodyPoint(world.model.body(world.model.jnt_bodyid[world.model.joint(j).id]).name, np.zeros(3))
             for j in robot.knee_joints
         ]
-        self.butt_geoms, self.butt_corners = body_box_corners(world.model, world.root_body)
+        self.seat = [body_box_corners(world.model, body) for body in seat_bodies(world)]
         leg_joints = [
             j
             for root in (leg[0] for leg in robot.legs.values())
@@ -236,7 +253,7 @@ class ReshapeController:
         elif len(self.knees) == 2:
             floor = [SurfacePair(knee, np.zeros(3), UP) for knee in self.knees]
             tasks.append(self._set_point(cfg.w_knees_level, RelativeDistanceTask(*floor).compute(state)))
-        kind = "side" if self.classes[0] in ("left", "right") else "front/back"
+        kind = "side" if self.classes[0] in ("left", "right") else facing
         posture = self.postures[kind].compute(state)
         for rows, weight in ((~self.legs, cfg.w_posture), (self.legs, cfg.w_leg_posture)):
             tasks.append(self._set_point(weight, posture.select(rows)))
@@ -267,8 +284,9 @@ class ReshapeController:
         return np.array([lead[0], lead[1], support[2]]), max(float(lead[2] - support[2]), 0.0)
 
     def _butt_point(self, data: mujoco.MjData) -> np.ndarray:
-        """Lowest corner (m, world) of the root body's collision geometry (the buttocks)."""
-        corners = world_corners(data, self.butt_geoms, self.butt_corners)
+        """Lowest corner (m, world) of the seat's collision geometry (`seat_bodies`: the root body
+        and the legs above the knees), 000 Sec. IV-C's P_b."""
+        corners = np.concatenate([world_corners(data, geoms, box) for geoms, box in self.seat if len(geoms)])
         return corners[np.argmin(corners[:, 2])]
 
     def _hands_below_butt(self, data: mujoco.MjData, state: RobotState) -> list[SetPoint]:
@@ -317,6 +335,22 @@ class ReshapeController:
             "fall_class_at_detection": self.classes[0],
             "fall_class_before_impact": self.classes[-1],
         }
+
+
+def seat_bodies(world: World) -> list[int]:
+    """MuJoCo ids of the bodies a robot sits on in a back fall: the root body and every body between
+    it and a knee (hips and thighs). In a crouched back fall TALOS lands on a thigh and a hip
+    first and on its root body 0.3 s later or not at all (scenarios/reshape_dev.yaml), so the
+    buttocks' point P_b of 000 Sec. IV-C is the lowest point of these bodies, not of the root
+    body alone."""
+    model = world.model
+    bodies = {world.root_body}
+    for joint in world.robot.knee_joints:
+        body = model.body_parentid[model.jnt_bodyid[model.joint(joint).id]]
+        while body > 0 and body != world.root_body:
+            bodies.add(int(body))
+            body = model.body_parentid[body]
+    return sorted(bodies)
 
 
 RESHAPE_PARAMS = {f.name: f.default for f in dataclasses.fields(ReshapeConfig)}

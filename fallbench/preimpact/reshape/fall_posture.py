@@ -37,17 +37,24 @@ def wrist_up_angle(model: pin.Model, q: np.ndarray, joint: str, hand_frame: str)
 
 
 def fall_posture(
-    model: pin.Model, robot: RobotDescription, start: dict[str, float], knee_bend: float
+    model: pin.Model,
+    robot: RobotDescription,
+    start: dict[str, float],
+    knee_bend: float | None,
+    elbow_fraction: float = 1.0,
 ) -> dict[str, float]:
-    """Joint name -> target angle (rad) for every joint in `start`."""
+    """Joint name -> target angle (rad) for every joint in `start`. `knee_bend` None keeps the
+    legs' starting angles; `elbow_fraction` scales the elbow's angle of highest manipulability."""
     target = dict(start)
     for hip, knee, ankle in zip(*(robot.leg_pitch_joints[k] for k in ("hip", "knee", "ankle"))):
+        if knee_bend is None:
+            break
         target[knee] = knee_bend
         target[hip] = target[ankle] = -knee_bend / 2  # thigh and shank symmetric: the foot stays flat
     q = pin.neutral(model)
     for arm in robot.arms.values():
         index = model.joints[model.getJointId(arm.elbow_joint)].idx_q
-        target[arm.elbow_joint] = elbow_angle_max_manipulability(
+        target[arm.elbow_joint] = elbow_fraction * elbow_angle_max_manipulability(
             model.lowerPositionLimit[index], model.upperPositionLimit[index]
         )
     for name, value in target.items():
