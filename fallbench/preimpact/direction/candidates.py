@@ -40,6 +40,7 @@ class Candidate:
     direction: float = math.nan  # rad, predicted theta_f
     fall_time: float = math.nan  # s to touchdown
     score: float = math.inf
+    step: np.ndarray | None = None  # m, (2,) target minus the swing foot's centre (Take a Step)
     capturing: bool = False  # the fall would stop on the new polygon (capture point inside, or the pendulum falls back onto it)
 
     @property
@@ -160,6 +161,7 @@ def evaluate(
                 swing,
                 t,
                 support_polygon(np.vstack([soles[stance], soles[swing] + (t - centre)])),
+                step=t - centre,
             )
             for t in targets
         ]

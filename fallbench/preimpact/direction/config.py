@@ -38,6 +38,10 @@ class DirectionConfig:
         True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
     )
     tracking_period: float = 0.02  # s between tracking predictions
+    # Forced candidates, for measuring steering authority (a forced `mode` only; null: chosen by score)
+    swing_side: str = ""  # left | right: the lifted or stepping foot
+    step_length: float | None = None  # m: the step nearest this length and `step_bearing` ...
+    step_bearing: float | None = None  # deg ... off No Action's predicted fall direction (+ counterclockwise)
 
     @property
     def w2(self) -> float:

@@ -33,7 +33,7 @@ from fallbench.preimpact.direction.inertia import (
     to_vector,
 )
 from fallbench.preimpact.direction.scoring import score
-from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
+from fallbench.preimpact.direction.selection import MODES, SELECTIONS, SIDES, Forced, Plan, choose
 from fallbench.preimpact.direction.stepping import foot_to_foot_jacobian, swing_velocity
 from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
 from fallbench.preimpact.direction.swing import SwingPath
@@ -55,7 +55,7 @@ def _yaw_only(rotation: np.ndarray) -> np.ndarray:
 class DirectionStrategy(Strategy):
     name = "direction"
     defaults = DIRECTION_PARAMS
-    choices = {"mode": MODES, "selection": SELECTIONS}
+    choices = {"mode": MODES, "selection": SELECTIONS, "swing_side": SIDES}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
@@ -157,6 +157,7 @@ class DirectionStrategy(Strategy):
             config.w1,
             config.w2,
             config.allow_capture,
+            Forced(config.swing_side, config.step_length, config.step_bearing),
         )
         self.plan_ms = (time.perf_counter() - started) * 1e3
 
