@@ -44,6 +44,8 @@ run_app = typer.Typer(help="Simulate falls.", no_args_is_help=True)
 scenarios_app = typer.Typer(help="Check and export scenario files.", no_args_is_help=True)
 app.add_typer(run_app, name="run")
 app.add_typer(scenarios_app, name="scenarios")
+direction_app = typer.Typer(help="004's direction-changing fall control: measurements.", no_args_is_help=True)
+app.add_typer(direction_app, name="direction")
 
 
 def fail(message: str, code: int = 2) -> None:
@@ -574,6 +576,30 @@ def _echo_regressions(regressions) -> None:
         typer.echo(
             f"{r.case:<48} {r.metric:<32} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}"
         )
+
+
+@direction_app.command("authority")
+def direction_authority_command(
+    results: Path = typer.Option(
+        Path("results"), help="Results store with the runs of scenarios/direction_authority.yaml."
+    ),
+    out: Path | None = typer.Option(None, help="Also write the table to this CSV file."),
+) -> None:
+    """Steering authority in free space: per robot, push force and direction, the span of fall
+    directions (deflection from `none`'s, deg) that the forced candidates of 004 reach.
+    Run first: fallbench run sweep scenarios/direction_authority.yaml --pre-impact none,direction --policies stiff"""
+    from fallbench.report.direction_judge import authority_from_store
+
+    try:
+        table = authority_from_store(results)
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    if table.empty:
+        fail(f"{results}: no runs of scenarios/direction_authority.yaml (scenario dir_authority)")
+    typer.echo(table.to_markdown(index=False))
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        table.to_csv(out, index=False)
 
 
 def main() -> None:

@@ -17,6 +17,13 @@ from ruamel.yaml import YAML
 
 from fallbench.preimpact.direction.config import DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
+from fallbench.report.direction_judge import (
+    authority_runs,
+    authority_table,
+    judge_hits,
+    judged_table,
+    within_authority_claim,
+)
 from fallbench.report.figures import _save
 from fallbench.results import store
 from fallbench.scenario import Scenario
@@ -58,6 +65,9 @@ def paired(runs: pd.DataFrame) -> pd.DataFrame:
             "layout_yaw": direction.get("param:layout_yaw", pd.Series(0.0, index=direction.index)).fillna(
                 0.0
             ),
+            "need_deg": none.get("needed_deflection_deg", pd.Series(np.nan, index=none.index)),
+            "none_run_id": none.get("run_id"),
+            "direction_run_id": direction.get("run_id"),
         }
     )
     return frame.reset_index()
@@ -410,11 +420,21 @@ def direction_report(
     if pairs.empty:
         return [], {}
     paths = hit_rate_figure(pairs, out)
+    authority = authority_table(authority_runs(runs, results))
+    hits = judge_hits(pairs, results, authority)
     policy = "stiff" if (pairs.policy == "stiff").any() else pairs.policy.iloc[0]
     cases = sorted(pairs[pairs.scenario.str.startswith("dir_fig")].point.unique())
     for point in cases:
         paths += top_down_figure(runs, results, out, point, policy)
-    return paths, {
+    tables = {
         "Object hits, none vs direction (004)": hit_table(pairs),
-        "Claims of 004": claims(runs, pairs),
+        "Claims of 004": pd.concat([claims(runs, pairs), pd.DataFrame(within_authority_claim(hits))]),
     }
+    if not authority.empty:
+        tables[
+            "Steering authority in free space (deflection from none's fall, deg; scenarios/direction_authority.yaml)"
+        ] = authority
+        tables[
+            "004 judged where steering can matter (hits whose needed deflection is within the authority)"
+        ] = judged_table(pairs, hits)
+    return paths, tables
