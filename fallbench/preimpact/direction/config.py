@@ -38,6 +38,7 @@ class DirectionConfig:
         True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
     )
     tracking_period: float = 0.02  # s between tracking predictions
+    predictor: str = "pendulum"  # pendulum (004's) | oracle: each candidate simulated in a copy of the scene (oracle.py; not real time)
     # Forced candidates, for measuring steering authority (a forced `mode` only; null: chosen by score)
     swing_side: str = ""  # left | right: the lifted or stepping foot
     step_length: float | None = None  # m: the step nearest this length and `step_bearing` ...

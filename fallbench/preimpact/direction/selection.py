@@ -19,6 +19,7 @@ CLASSES = ("no_action", "lift_leg", "take_step")
 MODES = ("auto", "no_action", "lift_leg", "take_step", "take_step_pis", "whole_body_is")
 SELECTIONS = ("cascade", "argmin")
 SIDES = ("", "left", "right")
+PREDICTORS = ("pendulum", "oracle")
 
 
 @dataclass(frozen=True)

@@ -32,8 +32,9 @@ from fallbench.preimpact.direction.inertia import (
     inertia_jacobian,
     to_vector,
 )
+from fallbench.preimpact.direction.oracle import oracle_subset, simulate
 from fallbench.preimpact.direction.scoring import score
-from fallbench.preimpact.direction.selection import MODES, SELECTIONS, SIDES, Forced, Plan, choose
+from fallbench.preimpact.direction.selection import MODES, PREDICTORS, SELECTIONS, SIDES, Forced, Plan, choose
 from fallbench.preimpact.direction.stepping import foot_to_foot_jacobian, swing_velocity
 from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
 from fallbench.preimpact.direction.swing import SwingPath
@@ -55,7 +56,7 @@ def _yaw_only(rotation: np.ndarray) -> np.ndarray:
 class DirectionStrategy(Strategy):
     name = "direction"
     defaults = DIRECTION_PARAMS
-    choices = {"mode": MODES, "selection": SELECTIONS, "swing_side": SIDES}
+    choices = {"mode": MODES, "selection": SELECTIONS, "swing_side": SIDES, "predictor": PREDICTORS}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
@@ -120,7 +121,9 @@ class DirectionStrategy(Strategy):
         if self.plan is None:
             if not self.trigger.update(t, xi):
                 return None
-            self._plan(data, com, com_velocity)
+            self._plan(t, data, com, com_velocity)
+            if self.config.predictor == "oracle":  # the rollouts left the shared Pinocchio data elsewhere
+                state = RobotState.measure(self.P, *self.P.state(data.qpos, data.qvel))
         self._track(t, data, com, com_velocity)
         command = self._control(t, data, state, xi)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
@@ -134,7 +137,7 @@ class DirectionStrategy(Strategy):
 
     # ------------------------------------------------------------------ planning
 
-    def _plan(self, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
+    def _plan(self, t: float, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
         started = time.perf_counter()
         config = self.config
         self.origin = com[:2].copy()
@@ -149,6 +152,10 @@ class DirectionStrategy(Strategy):
         self.sole_centres = {side: corners.mean(axis=0) for side, corners in soles.items()}
         state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
         candidates, _ = evaluate(soles, state, self.grid, self.objects)
+        if config.predictor == "oracle":  # each candidate simulated: perfect, not real-time prediction
+            candidates = oracle_subset(candidates)
+            for candidate in candidates:
+                candidate.direction, candidate.capturing = simulate(self, data, t, candidate)
         self.plan = choose(
             candidates,
             self.regions,
@@ -159,6 +166,8 @@ class DirectionStrategy(Strategy):
             config.allow_capture,
             Forced(config.swing_side, config.step_length, config.step_bearing),
         )
+        if config.predictor == "oracle":  # run the chosen candidate as it was simulated: no shaping
+            self.plan.inertia_shaping = ""
         self.plan_ms = (time.perf_counter() - started) * 1e3
 
     # ------------------------------------------------------------------ control
@@ -238,6 +247,7 @@ class DirectionStrategy(Strategy):
             or config.mode != "auto"
             or plan.chosen.kind == "no_action"
             or plan.inertia_shaping == "wbis"
+            or config.predictor == "oracle"
         ):
             return
         if plan.chosen.kind == "take_step" and self.step_done is None:
