@@ -30,6 +30,7 @@ from fallbench.scenario import Scenario
 
 PAIR_KEYS = ["point", "policy"]
 PLOT_RADIUS = 2.2  # m, extent of the shaded safe cones
+MAX_YAW_ROWS = 4  # layout turns per scenario shown as rows of their own (more: one row, "all")
 
 
 def _class(label: str) -> str:
@@ -65,6 +66,9 @@ def paired(runs: pd.DataFrame) -> pd.DataFrame:
             "layout_yaw": direction.get("param:layout_yaw", pd.Series(0.0, index=direction.index)).fillna(
                 0.0
             ),
+            "predictor": direction.get(
+                "param:policy_params.direction.predictor", pd.Series("pendulum", index=direction.index)
+            ).fillna("pendulum"),
             "need_deg": none.get("needed_deflection_deg", pd.Series(np.nan, index=none.index)),
             "none_run_id": none.get("run_id"),
             "direction_run_id": direction.get("run_id"),
@@ -81,12 +85,15 @@ def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
     """Per scenario and layout turn (`layout_yaw`): object hits of `none` vs `direction`, strategies
     chosen, prediction error and planning time."""
     rows = []
-    for (scenario, yaw), group in pairs.groupby(["scenario", "layout_yaw"]):
+    yaws = pairs.groupby("scenario").layout_yaw.transform("nunique")
+    pairs = pairs.assign(layout_yaw=pairs.layout_yaw.where(yaws <= MAX_YAW_ROWS, "all"))
+    for (scenario, predictor, yaw), group in pairs.groupby(["scenario", "predictor", "layout_yaw"]):
         hits = group[group.none_hit]
         clear = group[~group.none_hit]
         rows.append(
             {
                 "scenario": scenario,
+                "predictor": predictor,
                 "layout_yaw (deg)": yaw,
                 "runs": len(group),
                 "falls detected": int(group.fell.sum()),

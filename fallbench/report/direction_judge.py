@@ -166,15 +166,23 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
     """Per scenario: 004's first claim overall and over the hits whose need is within the measured
     authority (N/M), the clear falls kept clear, and the needs of the hits."""
     rows = []
-    for scenario, group in pairs[pairs.scenario != AUTHORITY_SCENARIO].groupby("scenario"):
+    pairs = pairs if "predictor" in pairs else pairs.assign(predictor="pendulum")
+    for (scenario, predictor), group in pairs[pairs.scenario != AUTHORITY_SCENARIO].groupby(
+        ["scenario", "predictor"]
+    ):
         all_hits = group[group.none_hit]
         clear = group[~group.none_hit]
-        judged = hits[hits.scenario == scenario] if len(hits) else pd.DataFrame(columns=["within_authority"])
+        judged = (
+            hits[(hits.scenario == scenario) & (hits.get("predictor", "pendulum") == predictor)]
+            if len(hits)
+            else pd.DataFrame(columns=["within_authority", "direction_hit"])
+        )
         within = judged[judged.within_authority.astype(bool)] if len(judged) else judged
         need = all_hits.need_deg.abs() if "need_deg" in all_hits else pd.Series(dtype=float)
         rows.append(
             {
                 "scenario": scenario,
+                "predictor": predictor,
                 "runs": len(group),
                 "none hits": len(all_hits),
                 "need 0 deg (model calls none's fall safe)": int((need == 0).sum()),
@@ -199,20 +207,27 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
 
 
 def within_authority_claim(hits: pd.DataFrame) -> list[dict[str, str]]:
-    """004's first claim restricted to the hits whose need is within the measured authority."""
+    """004's first claim restricted to the hits whose need is within the measured authority, per
+    predictor (004's pendulum, or the oracle bound)."""
     if hits.empty:
         return []
-    within = hits[hits.within_authority.astype(bool)]
-    avoided = int((~within.direction_hit).sum())
-    verdict = "n/a" if within.empty else ("holds" if avoided >= 0.5 * len(within) else "does not hold")
-    return [
-        {
-            "claim (004)": "direction avoids the objects that none hits, over the hits whose needed deflection is "
-            "within the robot's measured steering authority; holds at >= 50 %",
-            "verdict": verdict,
-            "N/M": _ratio(avoided, len(within)) + f"; {len(within)} of {len(hits)} hits within authority",
-        }
-    ]
+    rows = []
+    hits = hits if "predictor" in hits else hits.assign(predictor="pendulum")
+    for predictor, group in hits.groupby("predictor"):
+        within = group[group.within_authority.astype(bool)]
+        avoided = int((~within.direction_hit).sum())
+        verdict = "n/a" if within.empty else ("holds" if avoided >= 0.5 * len(within) else "does not hold")
+        oracle = " (oracle prediction: not real time)" if predictor == "oracle" else ""
+        rows.append(
+            {
+                "claim (004)": "direction avoids the objects that none hits, over the hits whose needed deflection "
+                f"is within the robot's measured steering authority{oracle}; holds at >= 50 %",
+                "verdict": verdict,
+                "N/M": _ratio(avoided, len(within))
+                + f"; {len(within)} of {len(group)} hits within authority",
+            }
+        )
+    return rows
 
 
 def authority_from_store(results: Path) -> pd.DataFrame:
