@@ -34,6 +34,8 @@ class DirectionConfig:
     damping: float = 1e-3  # damped pseudo-inverses
     step_tolerance: float = 0.05  # m: the foot starts down within half of this from its target; a step is complete when it lands within this
     allow_capture: bool = False  # keep steps whose polygon holds the capture point (004's falls are certain)
+    partial_shaping: str = "upper_body"  # upper_body: arms and torso only (never the stance leg, which undoes a lift) | eq7: 004's eq. 7, every joint but the swing leg | off
+    whole_body_shaping: str = "off"  # off | on (004: No Action chosen unsafe, and tracking after a landed step, run whole-body inertia shaping)
     tracking: bool = (
         True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
     )

@@ -20,6 +20,8 @@ MODES = ("auto", "no_action", "lift_leg", "take_step", "take_step_pis", "whole_b
 SELECTIONS = ("cascade", "argmin")
 SIDES = ("", "left", "right")
 PREDICTORS = ("pendulum", "oracle")
+PARTIAL_SHAPING = ("upper_body", "eq7", "off")
+WHOLE_BODY_SHAPING = ("off", "on")
 
 
 @dataclass(frozen=True)

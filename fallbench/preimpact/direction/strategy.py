@@ -34,7 +34,17 @@ from fallbench.preimpact.direction.inertia import (
 )
 from fallbench.preimpact.direction.oracle import oracle_subset, simulate
 from fallbench.preimpact.direction.scoring import score
-from fallbench.preimpact.direction.selection import MODES, PREDICTORS, SELECTIONS, SIDES, Forced, Plan, choose
+from fallbench.preimpact.direction.selection import (
+    MODES,
+    PARTIAL_SHAPING,
+    PREDICTORS,
+    SELECTIONS,
+    SIDES,
+    WHOLE_BODY_SHAPING,
+    Forced,
+    Plan,
+    choose,
+)
 from fallbench.preimpact.direction.stepping import foot_to_foot_jacobian, swing_velocity
 from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
 from fallbench.preimpact.direction.swing import SwingPath
@@ -56,7 +66,14 @@ def _yaw_only(rotation: np.ndarray) -> np.ndarray:
 class DirectionStrategy(Strategy):
     name = "direction"
     defaults = DIRECTION_PARAMS
-    choices = {"mode": MODES, "selection": SELECTIONS, "swing_side": SIDES, "predictor": PREDICTORS}
+    choices = {
+        "mode": MODES,
+        "selection": SELECTIONS,
+        "swing_side": SIDES,
+        "predictor": PREDICTORS,
+        "partial_shaping": PARTIAL_SHAPING,
+        "whole_body_shaping": WHOLE_BODY_SHAPING,
+    }
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
@@ -166,7 +183,12 @@ class DirectionStrategy(Strategy):
             config.allow_capture,
             Forced(config.swing_side, config.step_length, config.step_bearing),
         )
-        if config.predictor == "oracle":  # run the chosen candidate as it was simulated: no shaping
+        shaping = self.plan.inertia_shaping
+        if (
+            config.predictor == "oracle"  # run the chosen candidate as it was simulated: no shaping
+            or (shaping == "pis" and config.partial_shaping == "off")
+            or (shaping == "wbis" and config.mode == "auto" and config.whole_body_shaping == "off")
+        ):
             self.plan.inertia_shaping = ""
         self.plan_ms = (time.perf_counter() - started) * 1e3
 
@@ -248,6 +270,7 @@ class DirectionStrategy(Strategy):
             or plan.chosen.kind == "no_action"
             or plan.inertia_shaping == "wbis"
             or config.predictor == "oracle"
+            or config.whole_body_shaping == "off"
         ):
             return
         if plan.chosen.kind == "take_step" and self.step_done is None:
@@ -297,7 +320,7 @@ class DirectionStrategy(Strategy):
             placement = self.leg_columns[plan.chosen.swing]
             columns = (
                 self.upper_columns
-                if plan.chosen.kind == "take_step"
+                if plan.chosen.kind == "take_step" or self.config.partial_shaping == "upper_body"
                 else np.setdiff1d(np.arange(model.nv - 6), placement)
             )
         rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
@@ -361,6 +384,14 @@ class DirectionStrategy(Strategy):
                 and self.step_error <= self.config.step_tolerance
             )
             row["step_error"] = self.step_error
+            row["step_landed_time"] = (  # s after the control trigger
+                self.step_done - self.trigger.time
+                if self.step_done is not None and self.trigger.time is not None
+                else math.nan
+            )
+            row["step_length"] = (
+                float(np.linalg.norm(plan.chosen.step)) if plan.chosen.step is not None else math.nan
+            )
             assert plan.chosen.target is not None
             row["step_target_x"], row["step_target_y"] = (float(x) for x in plan.chosen.target)
         if plan:
