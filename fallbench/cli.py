@@ -602,6 +602,26 @@ def direction_authority_command(
         table.to_csv(out, index=False)
 
 
+@direction_app.command("radius")
+def direction_radius_command(
+    results: Path = typer.Option(
+        Path("results"), help="Results store with `none` runs of scenarios/direction_bearing.yaml."
+    ),
+) -> None:
+    """The robot radius of 004's grown circles, measured per robot from `none`'s falls past one object:
+    the widest lateral offset of the object from the fall's line at which the fall still touched it.
+    Run first: fallbench run sweep scenarios/direction_bearing.yaml --pre-impact none --policies stiff"""
+    from fallbench.report.direction_judge import radius_from_store
+
+    try:
+        table = radius_from_store(results)
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    if table.empty:
+        fail(f"{results}: no `none` falls past a single object")
+    typer.echo(table.to_markdown(index=False))
+
+
 def main() -> None:
     app()
 

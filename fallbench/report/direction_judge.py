@@ -82,7 +82,8 @@ def authority_runs(runs: pd.DataFrame, results: Path) -> pd.DataFrame:
     if suite.empty or "actual_fall_direction_deg" not in suite:
         return pd.DataFrame()
     suite = with_push(suite, results)
-    none = suite[suite.pre_impact == "none"].groupby(CELL).actual_fall_direction_deg.first()
+    fallen = (suite.pre_impact == "none") & (suite.actual_fall_end == "touchdown")  # else no direction
+    none = suite[fallen].groupby(CELL).actual_fall_direction_deg.first()
     forced = suite[suite.pre_impact == "direction"].copy()
     forced["candidate"] = forced.apply(_candidate, axis=1)
     base = forced.set_index(CELL).index.map(lambda k: none.get(k, math.nan))
@@ -116,7 +117,9 @@ def authority_table(detail: pd.DataFrame) -> pd.DataFrame:
                 "robot": robot,
                 "force (N)": force,
                 "push direction (deg)": direction,
-                "none falls toward (deg)": round(float(cell.none_direction_deg.iloc[0]), 1),
+                "none falls toward (deg)": round(
+                    float(cell.none_direction_deg.iloc[0]), 1
+                ),  # nan: none stays up
                 "min deflection (deg)": round(float(fell.deflection_deg.min()), 1) if len(fell) else math.nan,
                 "max deflection (deg)": round(float(fell.deflection_deg.max()), 1) if len(fell) else math.nan,
                 "no_action": _span(cell[kind == "no_action"].deflection_deg),
@@ -237,3 +240,78 @@ def authority_from_store(results: Path) -> pd.DataFrame:
         store.consolidate(results)
     runs = store.load_metrics(results, scenario=[AUTHORITY_SCENARIO])
     return authority_table(authority_runs(runs, results))
+
+
+def _spec_scenario(results: Path, run_id: str) -> dict:
+    spec = YAML(typ="safe", pure=True).load((store.run_dir(results, run_id) / "spec.yaml").read_text())
+    return spec["scenario"]
+
+
+def footprint_rows(runs: pd.DataFrame, results: Path) -> pd.DataFrame:
+    """Per `none` fall past one object (the single-object bearing suites): how far the object's
+    circle lies off the fall's line, `lateral_m` = perpendicular distance of its centre from the line
+    (CoM at the fall trigger, along the actual fall direction) minus its circle's radius, and
+    whether the fall touched it. Objects behind the fall are left out."""
+    from fallbench.preimpact.direction.geometry import object_circle
+    from fallbench.scenario import Scenario
+
+    single = runs[
+        (runs.pre_impact == "none") & (runs.status == "ok") & runs.actual_fall_direction_deg.notna()
+    ]
+    rows = []
+    for _, run in single.iterrows():
+        scenario = Scenario.model_validate(_spec_scenario(results, run.run_id))
+        if len(scenario.obstacles) != 1 or not math.isfinite(run.fall_time):
+            continue
+        series = store.load_timeseries(results, run.run_id)
+        at = int(np.searchsorted(series.t.to_numpy(), run.fall_time))
+        origin = np.array([series.com_x.iloc[at], series.com_y.iloc[at]])
+        angle = math.radians(run.actual_fall_direction_deg)
+        along = np.array([math.cos(angle), math.sin(angle)])
+        circle = object_circle(scenario.obstacles[0])
+        offset = circle.centre - origin
+        if float(offset @ along) <= 0.0:
+            continue
+        rows.append(
+            {
+                "robot": scenario.robot,
+                "scenario": run.scenario,
+                "point": run.point,
+                "hit": bool(run.obstacle_hit),
+                "lateral_m": abs(float(along[0] * offset[1] - along[1] * offset[0])) - circle.radius,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def calibrated_radius(footprints: pd.DataFrame) -> pd.DataFrame:
+    """Per robot: the robot radius of 004's grown circles measured from its falls' footprints: the
+    largest lateral offset (m) at which a fall still touched the object (every measured hit then lies
+    inside its grown circle), beside the smallest lateral offset of a fall that stayed clear (the
+    radius is consistent with the clear falls when it is below this), with the counts."""
+    rows = []
+    for robot, group in footprints.groupby("robot"):
+        hits, clear = group[group.hit], group[~group.hit]
+        rows.append(
+            {
+                "robot": robot,
+                "falls": len(group),
+                "hits": len(hits),
+                "radius (m): widest hit": round(float(hits.lateral_m.max()), 3) if len(hits) else math.nan,
+                "narrowest clear fall (m)": round(float(clear.lateral_m.min()), 3)
+                if len(clear)
+                else math.nan,
+                "clear falls narrower than the radius": int((clear.lateral_m < hits.lateral_m.max()).sum())
+                if len(hits)
+                else 0,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def radius_from_store(results: Path) -> pd.DataFrame:
+    """`calibrated_radius` of the single-object `none` falls in a results store."""
+    if (results / "runs").is_dir():
+        store.consolidate(results)
+    runs = store.load_metrics(results, pre_impact=["none"])
+    return calibrated_radius(footprint_rows(runs, results))

@@ -24,11 +24,16 @@ from fallbench.sim.events import capture_point, support_polygon
 class StepGrid:
     radii: np.ndarray  # m, step lengths from the swing foot's current centre
     headings: np.ndarray  # rad, world
-    foot_speed: float  # m/s, mean swing-foot speed
+    time_offset: float  # s: a step of length d lands time_offset + time_per_m d after the control trigger
+    time_per_m: float  # s/m (measured: scenarios/direction_step_timing.yaml, docs/methods/direction.md)
     min_separation: (
         float  # m from the stance foot's centre to the target, across (toward the swing foot's side)
     )
     max_separation: float  # m, the maximum leg spread
+
+    def landing_time(self, length: float) -> float:
+        """s from the control trigger until a step of `length` m lands (the swing lifts, then sets down)."""
+        return self.time_offset + self.time_per_m * length
 
 
 @dataclass
@@ -150,11 +155,11 @@ def evaluate(
         targets = [
             t
             for t in step_targets(soles, swing, grid, objects)
-            if np.linalg.norm(t - centre) / grid.foot_speed <= deadline
+            if grid.landing_time(float(np.linalg.norm(t - centre))) <= deadline
         ]
         if not targets:
             continue
-        travel = np.array([float(np.linalg.norm(t - centre)) / grid.foot_speed for t in targets])
+        travel = np.array([grid.landing_time(float(np.linalg.norm(t - centre))) for t in targets])
         side = [
             Candidate(
                 "take_step",

@@ -28,7 +28,12 @@ class DirectionConfig:
     min_foot_separation: float = (
         0.15  # m: the target stays this far on the swing foot's side of the stance foot
     )
-    foot_speed: float = 1.0  # m/s, mean swing-foot speed (reachability) and its cap
+    foot_speed: float = 1.0  # m/s, the swing foot's speed cap (eq. 5)
+    # Step landing time after the control trigger, offset + per_m x length: a least-squares fit to 26 completed
+    # forced steps in free space (scenarios/direction_step_timing.yaml; 0.15-0.45 m, 393/618 N forward and right);
+    # 004's reading (length / foot_speed) is offset 0, per_m 1/foot_speed, and lands 0.06-0.17 s early
+    step_time_offset: float = 0.24  # s
+    step_time_per_m: float = 0.55  # s/m
     step_gain: float = 20.0  # 1/s, eq. 5
     inertia_gain: float = 10.0  # 1/s, eqs. 6 and 8
     damping: float = 1e-3  # damped pseudo-inverses

@@ -15,7 +15,7 @@ the rollouts to a few dozen per fall.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -25,9 +25,6 @@ from fallbench.preimpact.direction.candidates import Candidate
 from fallbench.preimpact.direction.selection import Plan
 from fallbench.sim.events import capture_point
 from fallbench.sim.servo import write_servo
-
-if TYPE_CHECKING:
-    from fallbench.preimpact.direction.strategy import DirectionStrategy
 
 ROLLOUT_LIMIT = 2.0  # s after the control trigger
 ORACLE_RADII = (0.25, 0.45)  # m, step lengths simulated
@@ -65,11 +62,10 @@ class _ServoState:
         self.model.actuator_biasprm[:] = self.bias
 
 
-def simulate(
-    strategy: DirectionStrategy, data: mujoco.MjData, t: float, candidate: Candidate
-) -> tuple[float, bool]:
+def simulate(strategy: Any, data: mujoco.MjData, t: float, candidate: Candidate) -> tuple[float, bool]:
     """(fall direction, rad from the strategy's origin; whether the candidate's fall stops) of one
-    candidate simulated from the present state `data` at time `t` (s); `data` is not changed."""
+    candidate simulated from the present state `data` at time `t` (s); `data` is not changed.
+    `strategy` is the running DirectionStrategy (not imported here: it imports this module)."""
     world, scenario = strategy.world, strategy.scenario
     model = world.model
     saved = {name: getattr(strategy, name) for name in SAVED}

@@ -97,7 +97,8 @@ class DirectionStrategy(Strategy):
         self.grid = StepGrid(
             np.arange(config.step_radius_min, config.step_radius_max + 1e-9, config.step_radius_step),
             np.radians(np.arange(0.0, 360.0, config.step_heading_step)),
-            config.foot_speed,
+            config.step_time_offset,
+            config.step_time_per_m,
             config.min_foot_separation,
             2 * config.robot_radius,
         )
