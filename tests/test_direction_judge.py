@@ -106,3 +106,13 @@ def test_the_first_claim_is_judged_over_hits_whose_need_is_within_authority() ->
         row["avoided, all hits"] == "1/3 (33 %)"
         and row["need <= 15 / 15-30 / 30-45 / > 45 deg"] == "1 / 1 / 0 / 1"
     )
+
+
+def test_capture_prefer_takes_the_step_with_the_widest_capture_margin() -> None:
+    no_action = Candidate("no_action", None, None, SQUARE, direction=0.0)
+    steps = [_step("left", (0.0, 0.3), 90), _step("right", (0.3, 0.0), 0), _step("left", (0.0, 0.45), 90)]
+    steps[0].capture_margin, steps[1].capture_margin, steps[2].capture_margin = 0.02, 0.08, -0.1
+    regions = [SafeRegion(0.0, 2 * math.pi)]
+    plan = choose([no_action, *steps], regions, capture="prefer")
+    assert plan.chosen is steps[1] and plan.inertia_shaping == "" and plan.desired is None
+    assert choose([no_action, *steps], regions, capture="off").chosen is no_action  # NA safe: cascade

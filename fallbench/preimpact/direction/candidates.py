@@ -46,6 +46,9 @@ class Candidate:
     fall_time: float = math.nan  # s to touchdown
     score: float = math.inf
     step: np.ndarray | None = None  # m, (2,) target minus the swing foot's centre (Take a Step)
+    capture_margin: float = (
+        -math.inf
+    )  # m: the capture point's distance inside the polygon (negative: outside), at landing for a step
     capturing: bool = False  # the fall would stop on the new polygon (capture point inside, or the pendulum falls back onto it)
 
     @property
@@ -79,6 +82,13 @@ def predict(
     roll = rollout(np.array(pivots), np.array(edges), coms, velocities, state.floor_z, state.touchdown_height)
     back = np.einsum("ij,ij->i", roll.end[:, :2] - np.array(pivots), np.array(outward)) < 0.0
     return roll, np.array(inside) | back
+
+
+def capture_margin(polygon: np.ndarray, com: np.ndarray, velocity: np.ndarray) -> float:
+    """m: how far the capture point lies inside `polygon` (negative outside it)."""
+    xi = capture_point(com, velocity)
+    gap = float(np.linalg.norm(xi[:2] - nearest_pivot(polygon, xi).point))
+    return gap if contains(polygon, xi) else -gap
 
 
 def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:
@@ -178,5 +188,6 @@ def evaluate(
                 travel[j] + float(times[j]),
                 bool(inside[j]),
             )
+            candidate.capture_margin = capture_margin(candidate.polygon, coms[j], vels[j])
         steps += side
     return fixed + steps, fixed_roll

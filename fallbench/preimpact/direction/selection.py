@@ -22,6 +22,7 @@ SIDES = ("", "left", "right")
 PREDICTORS = ("pendulum", "oracle")
 PARTIAL_SHAPING = ("upper_body", "eq7", "off")
 WHOLE_BODY_SHAPING = ("off", "on")
+CAPTURE = ("off", "prefer")
 
 
 @dataclass(frozen=True)
@@ -73,12 +74,17 @@ def choose(
     w2: float = 0.5,
     allow_capture: bool = False,
     forced: Forced = Forced(),
+    capture: str = "off",
 ) -> Plan:
     for candidate in candidates:
         candidate.score = score(candidate.direction, regions, w1, w2)
     usable = [c for c in candidates if c.kind == "no_action" or allow_capture or not c.capturing]
     no_action = _best(usable, "no_action")
     assert no_action is not None
+    capturing = [c for c in candidates if c.kind == "take_step" and c.capture_margin > 0.0]
+    if mode == "auto" and capture == "prefer" and capturing:  # stop the fall: the widest capture margin
+        chosen = max(capturing, key=lambda c: c.capture_margin)
+        return Plan(chosen, "", None, candidates)
     if mode == "auto":
         chosen = None
         if selection == "cascade":

@@ -35,6 +35,7 @@ from fallbench.preimpact.direction.inertia import (
 from fallbench.preimpact.direction.oracle import oracle_subset, simulate
 from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import (
+    CAPTURE,
     MODES,
     PARTIAL_SHAPING,
     PREDICTORS,
@@ -73,6 +74,7 @@ class DirectionStrategy(Strategy):
         "predictor": PREDICTORS,
         "partial_shaping": PARTIAL_SHAPING,
         "whole_body_shaping": WHOLE_BODY_SHAPING,
+        "capture": CAPTURE,
     }
 
     def __init__(self, world: World, scenario: Scenario) -> None:
@@ -183,6 +185,7 @@ class DirectionStrategy(Strategy):
             config.w2,
             config.allow_capture,
             Forced(config.swing_side, config.step_length, config.step_bearing),
+            config.capture,
         )
         shaping = self.plan.inertia_shaping
         if (
