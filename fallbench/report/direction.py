@@ -106,6 +106,9 @@ def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
                     f"{k} {v}" for k, v in group.strategy.map(_class).value_counts().items()
                 ),
                 "prediction error median (deg)": round(float(group.error_deg.median()), 1),
+                "prediction error median, Take a Step (deg)": round(
+                    float(group[group.strategy.str.startswith("take_step")].error_deg.median()), 1
+                ),
                 "plan median (ms)": round(float(group.plan_ms.median()), 1),
                 "control step median (ms)": round(float(group.step_ms.median()), 2)
                 if group.step_ms.notna().any()

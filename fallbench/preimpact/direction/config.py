@@ -11,7 +11,7 @@ from dataclasses import dataclass
 class DirectionConfig:
     mode: str = "auto"  # auto, or a forced no_action | lift_leg | take_step | take_step_pis | whole_body_is
     selection: str = "cascade"  # cascade (NA -> LL -> TS, first safe) | argmin (best score)
-    robot_radius: float = 0.45  # m, half the maximum leg spread
+    robot_radius: float = 0.54  # m: TALOS's widest footprint off the fall line that still touched an object (`fallbench direction radius`, docs/methods/direction.md); 004: half the leg spread (0.45)
     consider_factor: float = 1.5  # objects within this times the robot height count
     robot_height: float = 1.7  # m
     w1: float = 0.5  # eq. 4; w2 = 1 - w1
