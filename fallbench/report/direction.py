@@ -18,6 +18,7 @@ from ruamel.yaml import YAML
 from fallbench.preimpact.direction.config import DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
 from fallbench.report.direction_judge import (
+    AUTHORITY_SCENARIO,
     authority_runs,
     authority_table,
     judge_hits,
@@ -426,11 +427,20 @@ def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:
 def direction_report(
     runs: pd.DataFrame, results: Path, out: Path
 ) -> tuple[list[Path], dict[str, pd.DataFrame]]:
-    pairs = paired(runs)
-    if pairs.empty:
-        return [], {}
-    paths = hit_rate_figure(pairs, out)
     authority = authority_table(authority_runs(runs, results))
+    authority_tables = (
+        {}
+        if authority.empty
+        else {
+            "Steering authority in free space (deflection from none's fall, deg; scenarios/direction_authority.yaml)": authority
+        }
+    )
+    pairs = paired(runs)
+    # the authority suite's forced runs in free space are measurements, not falls to judge
+    pairs = pairs[pairs.scenario != AUTHORITY_SCENARIO] if not pairs.empty else pairs
+    if pairs.empty:
+        return [], authority_tables
+    paths = hit_rate_figure(pairs, out)
     hits = judge_hits(pairs, results, authority)
     policy = "stiff" if (pairs.policy == "stiff").any() else pairs.policy.iloc[0]
     cases = sorted(pairs[pairs.scenario.str.startswith("dir_fig")].point.unique())
@@ -440,10 +450,8 @@ def direction_report(
         "Object hits, none vs direction (004)": hit_table(pairs),
         "Claims of 004": pd.concat([claims(runs, pairs), pd.DataFrame(within_authority_claim(hits))]),
     }
+    tables |= authority_tables
     if not authority.empty:
-        tables[
-            "Steering authority in free space (deflection from none's fall, deg; scenarios/direction_authority.yaml)"
-        ] = authority
         tables[
             "004 judged where steering can matter (hits whose needed deflection is within the authority)"
         ] = judged_table(pairs, hits)
