@@ -116,3 +116,13 @@ def test_capture_prefer_takes_the_step_with_the_widest_capture_margin() -> None:
     plan = choose([no_action, *steps], regions, capture="prefer")
     assert plan.chosen is steps[1] and plan.inertia_shaping == "" and plan.desired is None
     assert choose([no_action, *steps], regions, capture="off").chosen is no_action  # NA safe: cascade
+
+
+def test_authority_and_radius_commands_fail_cleanly_without_a_store(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from fallbench.cli import app
+
+    for command in ("authority", "radius"):
+        result = CliRunner().invoke(app, ["direction", command, "--results", str(tmp_path / "nothing")])
+        assert result.exit_code == 2 and result.output.startswith("error: ")
