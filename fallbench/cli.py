@@ -44,6 +44,8 @@ run_app = typer.Typer(help="Simulate falls.", no_args_is_help=True)
 scenarios_app = typer.Typer(help="Check and export scenario files.", no_args_is_help=True)
 app.add_typer(run_app, name="run")
 app.add_typer(scenarios_app, name="scenarios")
+direction_app = typer.Typer(help="004's direction-changing fall control: measurements.", no_args_is_help=True)
+app.add_typer(direction_app, name="direction")
 
 TIMESERIES_HELP = "How much of each run's time series to store: landing (every physics step about the first impact and each body group's first contact, 100 Hz elsewhere, quantised; ~55 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run)."
 
@@ -757,6 +759,50 @@ def _echo_regressions(regressions) -> None:
         typer.echo(
             f"{r.case:<48} {r.metric:<32} {r.baseline!s:>12.12} {r.now!s:>12.12} {r.change:>10}  {r.tolerance}"
         )
+
+
+@direction_app.command("authority")
+def direction_authority_command(
+    results: Path = typer.Option(
+        Path("results"), help="Results store with the runs of scenarios/direction_authority.yaml."
+    ),
+    out: Path | None = typer.Option(None, help="Also write the table to this CSV file."),
+) -> None:
+    """Steering authority in free space: per robot, push force and direction, the span of fall
+    directions (deflection from `none`'s, deg) that the forced candidates of 004 reach.
+    Run first: fallbench run sweep scenarios/direction_authority.yaml --pre-impact none,direction --policies stiff"""
+    from fallbench.report.direction_judge import authority_from_store
+
+    try:
+        table = authority_from_store(results)
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    if table.empty:
+        fail(f"{results}: no runs of scenarios/direction_authority.yaml (scenario dir_authority)")
+    typer.echo(table.to_markdown(index=False))
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        table.to_csv(out, index=False)
+
+
+@direction_app.command("radius")
+def direction_radius_command(
+    results: Path = typer.Option(
+        Path("results"), help="Results store with `none` runs of scenarios/direction_bearing.yaml."
+    ),
+) -> None:
+    """The robot radius of 004's grown circles, measured per robot from `none`'s falls past one object:
+    the widest lateral offset of the object from the fall's line at which the fall still touched it.
+    Run first: fallbench run sweep scenarios/direction_bearing.yaml --pre-impact none --policies stiff"""
+    from fallbench.report.direction_judge import radius_from_store
+
+    try:
+        table = radius_from_store(results)
+    except FileNotFoundError as exc:
+        fail(str(exc))
+    if table.empty:
+        fail(f"{results}: no `none` falls past a single object")
+    typer.echo(table.to_markdown(index=False))
 
 
 def main() -> None:

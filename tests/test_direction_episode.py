@@ -113,11 +113,25 @@ def test_actual_direction_stops_at_the_first_object_contact() -> None:
     )
 
 
+FAITHFUL_004 = {  # 004's reading as first built (docs/methods/direction.md, Results on TALOS)
+    "robot_radius": 0.45,
+    "partial_shaping": "eq7",
+    "whole_body_shaping": "on",
+    "step_time_offset": 0.0,
+    "step_time_per_m": 1.0,
+}
+
+
+def _with_direction(scenario: Scenario, **params: object) -> Scenario:
+    return scenario.model_copy(update={"policy_params": {**scenario.policy_params, "direction": params}})
+
+
 def test_whole_body_shaping_waits_for_the_step_to_land() -> None:
     """004 Sec. I-c: whole-body inertia shaping cannot start before the foot placement is complete.
-    004 Fig. 7's layout (351 N forward): no step is predicted safe, so tracking switches to whole-body
-    shaping, but only after the step's foot is down; switching in flight abandoned the step."""
-    rec = simulate_named(_shipped("dir_fig7"), "stiff", "direction")
+    004 Fig. 7's layout (351 N forward), with whole-body shaping on: no step is predicted safe, so
+    tracking switches to whole-body shaping, but only after the step's foot is down; switching in
+    flight abandoned the step."""
+    rec = simulate_named(_with_direction(_shipped("dir_fig7"), **FAITHFUL_004), "stiff", "direction")
     strategy = rec.strategy
     assert strategy is not None and strategy.plan is not None and strategy.plan.chosen.kind == "take_step"
     assert strategy.plan.inertia_shaping == "wbis"  # tracking did switch to whole-body shaping

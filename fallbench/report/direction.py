@@ -17,12 +17,21 @@ from ruamel.yaml import YAML
 
 from fallbench.preimpact.direction.config import DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
+from fallbench.report.direction_judge import (
+    AUTHORITY_SCENARIO,
+    authority_runs,
+    authority_table,
+    judge_hits,
+    judged_table,
+    within_authority_claim,
+)
 from fallbench.report.figures import _save
 from fallbench.results import store
 from fallbench.scenario import Scenario
 
 PAIR_KEYS = ["point", "policy"]
 PLOT_RADIUS = 2.2  # m, extent of the shaded safe cones
+MAX_YAW_ROWS = 4  # layout turns per scenario shown as rows of their own (more: one row, "all")
 
 
 def _class(label: str) -> str:
@@ -58,6 +67,12 @@ def paired(runs: pd.DataFrame) -> pd.DataFrame:
             "layout_yaw": direction.get("param:layout_yaw", pd.Series(0.0, index=direction.index)).fillna(
                 0.0
             ),
+            "predictor": direction.get(
+                "param:policy_params.direction.predictor", pd.Series("pendulum", index=direction.index)
+            ).fillna("pendulum"),
+            "need_deg": none.get("needed_deflection_deg", pd.Series(np.nan, index=none.index)),
+            "none_run_id": none.get("run_id"),
+            "direction_run_id": direction.get("run_id"),
         }
     )
     return frame.reset_index()
@@ -71,12 +86,15 @@ def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
     """Per scenario and layout turn (`layout_yaw`): object hits of `none` vs `direction`, strategies
     chosen, prediction error and planning time."""
     rows = []
-    for (scenario, yaw), group in pairs.groupby(["scenario", "layout_yaw"]):
+    yaws = pairs.groupby("scenario").layout_yaw.transform("nunique")
+    pairs = pairs.assign(layout_yaw=pairs.layout_yaw.where(yaws <= MAX_YAW_ROWS, "all"))
+    for (scenario, predictor, yaw), group in pairs.groupby(["scenario", "predictor", "layout_yaw"]):
         hits = group[group.none_hit]
         clear = group[~group.none_hit]
         rows.append(
             {
                 "scenario": scenario,
+                "predictor": predictor,
                 "layout_yaw (deg)": yaw,
                 "runs": len(group),
                 "falls detected": int(group.fell.sum()),
@@ -89,6 +107,9 @@ def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
                     f"{k} {v}" for k, v in group.strategy.map(_class).value_counts().items()
                 ),
                 "prediction error median (deg)": round(float(group.error_deg.median()), 1),
+                "prediction error median, Take a Step (deg)": round(
+                    float(group[group.strategy.str.startswith("take_step")].error_deg.median()), 1
+                ),
                 "plan median (ms)": round(float(group.plan_ms.median()), 1),
                 "control step median (ms)": round(float(group.step_ms.median()), 2)
                 if group.step_ms.notna().any()
@@ -407,15 +428,32 @@ def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:
 def direction_report(
     runs: pd.DataFrame, results: Path, out: Path
 ) -> tuple[list[Path], dict[str, pd.DataFrame]]:
+    authority = authority_table(authority_runs(runs, results))
+    authority_tables = (
+        {}
+        if authority.empty
+        else {
+            "Steering authority in free space (deflection from none's fall, deg; scenarios/direction_authority.yaml)": authority
+        }
+    )
     pairs = paired(runs)
+    # the authority suite's forced runs in free space are measurements, not falls to judge
+    pairs = pairs[pairs.scenario != AUTHORITY_SCENARIO] if not pairs.empty else pairs
     if pairs.empty:
-        return [], {}
+        return [], authority_tables
     paths = hit_rate_figure(pairs, out)
+    hits = judge_hits(pairs, results, authority)
     policy = "stiff" if (pairs.policy == "stiff").any() else pairs.policy.iloc[0]
     cases = sorted(pairs[pairs.scenario.str.startswith("dir_fig")].point.unique())
     for point in cases:
         paths += top_down_figure(runs, results, out, point, policy)
-    return paths, {
+    tables = {
         "Object hits, none vs direction (004)": hit_table(pairs),
-        "Claims of 004": claims(runs, pairs),
+        "Claims of 004": pd.concat([claims(runs, pairs), pd.DataFrame(within_authority_claim(hits))]),
     }
+    tables |= authority_tables
+    if not authority.empty:
+        tables[
+            "004 judged where steering can matter (hits whose needed deflection is within the authority)"
+        ] = judged_table(pairs, hits)
+    return paths, tables

@@ -24,11 +24,16 @@ from fallbench.sim.events import capture_point, support_polygon
 class StepGrid:
     radii: np.ndarray  # m, step lengths from the swing foot's current centre
     headings: np.ndarray  # rad, world
-    foot_speed: float  # m/s, mean swing-foot speed
+    time_offset: float  # s: a step of length d lands time_offset + time_per_m d after the control trigger
+    time_per_m: float  # s/m (measured: scenarios/direction_step_timing.yaml, docs/methods/direction.md)
     min_separation: (
         float  # m from the stance foot's centre to the target, across (toward the swing foot's side)
     )
     max_separation: float  # m, the maximum leg spread
+
+    def landing_time(self, length: float) -> float:
+        """s from the control trigger until a step of `length` m lands (the swing lifts, then sets down)."""
+        return self.time_offset + self.time_per_m * length
 
 
 @dataclass
@@ -40,6 +45,10 @@ class Candidate:
     direction: float = math.nan  # rad, predicted theta_f
     fall_time: float = math.nan  # s to touchdown
     score: float = math.inf
+    step: np.ndarray | None = None  # m, (2,) target minus the swing foot's centre (Take a Step)
+    capture_margin: float = (
+        -math.inf
+    )  # m: the capture point's distance inside the polygon (negative: outside), at landing for a step
     capturing: bool = False  # the fall would stop on the new polygon (capture point inside, or the pendulum falls back onto it)
 
     @property
@@ -73,6 +82,13 @@ def predict(
     roll = rollout(np.array(pivots), np.array(edges), coms, velocities, state.floor_z, state.touchdown_height)
     back = np.einsum("ij,ij->i", roll.end[:, :2] - np.array(pivots), np.array(outward)) < 0.0
     return roll, np.array(inside) | back
+
+
+def capture_margin(polygon: np.ndarray, com: np.ndarray, velocity: np.ndarray) -> float:
+    """m: how far the capture point lies inside `polygon` (negative outside it)."""
+    xi = capture_point(com, velocity)
+    gap = float(np.linalg.norm(xi[:2] - nearest_pivot(polygon, xi).point))
+    return gap if contains(polygon, xi) else -gap
 
 
 def clear_of(point: np.ndarray, reach: float, objects: list[Circle]) -> bool:
@@ -149,17 +165,18 @@ def evaluate(
         targets = [
             t
             for t in step_targets(soles, swing, grid, objects)
-            if np.linalg.norm(t - centre) / grid.foot_speed <= deadline
+            if grid.landing_time(float(np.linalg.norm(t - centre))) <= deadline
         ]
         if not targets:
             continue
-        travel = np.array([float(np.linalg.norm(t - centre)) / grid.foot_speed for t in targets])
+        travel = np.array([grid.landing_time(float(np.linalg.norm(t - centre))) for t in targets])
         side = [
             Candidate(
                 "take_step",
                 swing,
                 t,
                 support_polygon(np.vstack([soles[stance], soles[swing] + (t - centre)])),
+                step=t - centre,
             )
             for t in targets
         ]
@@ -171,5 +188,6 @@ def evaluate(
                 travel[j] + float(times[j]),
                 bool(inside[j]),
             )
+            candidate.capture_margin = capture_margin(candidate.polygon, coms[j], vels[j])
         steps += side
     return fixed + steps, fixed_roll

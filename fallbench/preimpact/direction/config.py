@@ -11,7 +11,7 @@ from dataclasses import dataclass
 class DirectionConfig:
     mode: str = "auto"  # auto, or a forced no_action | lift_leg | take_step | take_step_pis | whole_body_is
     selection: str = "cascade"  # cascade (NA -> LL -> TS, first safe) | argmin (best score)
-    robot_radius: float = 0.45  # m, half the maximum leg spread
+    robot_radius: float = 0.54  # m: TALOS's widest footprint off the fall line that still touched an object (`fallbench direction radius`, docs/methods/direction.md); 004: half the leg spread (0.45)
     consider_factor: float = 1.5  # objects within this times the robot height count
     robot_height: float = 1.7  # m
     w1: float = 0.5  # eq. 4; w2 = 1 - w1
@@ -28,16 +28,29 @@ class DirectionConfig:
     min_foot_separation: float = (
         0.15  # m: the target stays this far on the swing foot's side of the stance foot
     )
-    foot_speed: float = 1.0  # m/s, mean swing-foot speed (reachability) and its cap
+    foot_speed: float = 1.0  # m/s, the swing foot's speed cap (eq. 5)
+    # Step landing time after the control trigger, offset + per_m x length: a least-squares fit to 26 completed
+    # forced steps in free space (scenarios/direction_step_timing.yaml; 0.15-0.45 m, 393/618 N forward and right);
+    # 004's reading (length / foot_speed) is offset 0, per_m 1/foot_speed, and lands 0.06-0.17 s early
+    step_time_offset: float = 0.24  # s
+    step_time_per_m: float = 0.55  # s/m
     step_gain: float = 20.0  # 1/s, eq. 5
     inertia_gain: float = 10.0  # 1/s, eqs. 6 and 8
     damping: float = 1e-3  # damped pseudo-inverses
     step_tolerance: float = 0.05  # m: the foot starts down within half of this from its target; a step is complete when it lands within this
     allow_capture: bool = False  # keep steps whose polygon holds the capture point (004's falls are certain)
+    partial_shaping: str = "upper_body"  # upper_body: arms and torso only (never the stance leg, which undoes a lift) | eq7: 004's eq. 7, every joint but the swing leg | off
+    whole_body_shaping: str = "off"  # off | on (004: No Action chosen unsafe, and tracking after a landed step, run whole-body inertia shaping)
+    capture: str = "off"  # off (004: falls are certain) | prefer: a step predicted to stop the fall (capture point inside its polygon at the predicted landing), the widest margin, held after landing
     tracking: bool = (
         True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
     )
     tracking_period: float = 0.02  # s between tracking predictions
+    predictor: str = "pendulum"  # pendulum (004's) | oracle: each candidate simulated in a copy of the scene (oracle.py; not real time)
+    # Forced candidates, for measuring steering authority (a forced `mode` only; null: chosen by score)
+    swing_side: str = ""  # left | right: the lifted or stepping foot
+    step_length: float | None = None  # m: the step nearest this length and `step_bearing` ...
+    step_bearing: float | None = None  # deg ... off No Action's predicted fall direction (+ counterclockwise)
 
     @property
     def w2(self) -> float:

@@ -125,3 +125,20 @@ def safe_regions(circles: list[Circle], origin: np.ndarray) -> list[SafeRegion]:
         if next_lo > hi:
             regions.append(SafeRegion(wrap(base + hi), next_lo - hi))
     return regions
+
+
+def signed_turn(a: float, b: float) -> float:
+    """Smallest rotation (rad, + counter-clockwise) taking direction a to direction b, in (-pi, pi]."""
+    turn = wrap(b - a)
+    return turn - TWO_PI if turn > math.pi else turn
+
+
+def needed_deflection(angle: float, regions: list[SafeRegion]) -> float:
+    """The smallest rotation (rad, + counter-clockwise) that takes a fall direction into a safe
+    region: 0 inside one, nan when none is free (the deflection a hit needs, item 5 of the review)."""
+    if not regions:
+        return math.nan
+    if any(r.contains(angle) for r in regions):
+        return 0.0
+    turns = [signed_turn(angle, edge) for r in regions for edge in (r.start, r.start + r.width)]
+    return min(turns, key=abs)

@@ -13,7 +13,12 @@ import mujoco
 import numpy as np
 
 from fallbench.preimpact.direction.config import DirectionConfig
-from fallbench.preimpact.direction.geometry import angle_between, grown_circles, safe_regions
+from fallbench.preimpact.direction.geometry import (
+    angle_between,
+    grown_circles,
+    needed_deflection,
+    safe_regions,
+)
 from fallbench.preimpact.direction.scoring import score
 
 if TYPE_CHECKING:
@@ -57,7 +62,8 @@ def clearance(rec: Recording, sample: int) -> float:
 
 def obstacle_metrics(rec: Recording, origin_time: float | None) -> dict[str, Any]:
     """obstacle_hit, obstacle_clearance_at_impact, actual fall direction and whether it lies in a
-    safe region, n_safe_regions; origin_time: s, the control (or fall) trigger."""
+        safe region, n_safe_regions, the deflection (deg) that would take the actual direction into the
+    nearest safe region (0 inside one); origin_time: s, the control (or fall) trigger."""
     world, scenario = rec.world, rec.scenario
     config = DirectionConfig(**scenario.policy_params.get("direction", {}))
     found = [world.sensor(rec.sensordata, name)[:, 0] > 0 for name in world.obstacle_sensors]
@@ -72,6 +78,7 @@ def obstacle_metrics(rec: Recording, origin_time: float | None) -> dict[str, Any
         "actual_score": math.nan,
         "n_safe_regions": -1,
         "actual_fall_end": "",
+        "needed_deflection_deg": math.nan,
     }
     if origin_time is None or not math.isfinite(origin_time):
         return row | nan
@@ -98,6 +105,7 @@ def obstacle_metrics(rec: Recording, origin_time: float | None) -> dict[str, Any
     row["actual_in_safe_region"] = any(r.contains(direction) for r in regions)
     row["actual_score"] = score(direction, regions, config.w1, config.w2)
     row["n_safe_regions"] = len(regions)
+    row["needed_deflection_deg"] = math.degrees(needed_deflection(direction, regions))
     return row
 
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from fallbench.preimpact.direction.candidates import Candidate
 from fallbench.preimpact.direction.geometry import SafeRegion
 from fallbench.preimpact.direction.scoring import desired_direction, score
@@ -16,6 +18,21 @@ from fallbench.preimpact.direction.scoring import desired_direction, score
 CLASSES = ("no_action", "lift_leg", "take_step")
 MODES = ("auto", "no_action", "lift_leg", "take_step", "take_step_pis", "whole_body_is")
 SELECTIONS = ("cascade", "argmin")
+SIDES = ("", "left", "right")
+PREDICTORS = ("pendulum", "oracle")
+PARTIAL_SHAPING = ("upper_body", "eq7", "off")
+WHOLE_BODY_SHAPING = ("off", "on")
+CAPTURE = ("off", "prefer")
+
+
+@dataclass(frozen=True)
+class Forced:
+    """A forced candidate's side and step (for measuring steering authority): empty or None
+    fields leave the choice to the score."""
+
+    swing_side: str = ""  # left | right
+    step_length: float | None = None  # m
+    step_bearing: float | None = None  # deg off No Action's predicted fall direction, + counterclockwise
 
 
 @dataclass
@@ -36,6 +53,18 @@ def _best(candidates: list[Candidate], kind: str) -> Candidate | None:
     return min(members, key=lambda c: c.score) if members else None
 
 
+def _forced(candidates: list[Candidate], kind: str, no_action: Candidate, forced: Forced) -> Candidate | None:
+    """The candidate of `kind` on the forced side whose step is nearest the forced one (any
+    capturing ones included: a forced step is measured, not judged), else None."""
+    members = [c for c in candidates if c.kind == kind and forced.swing_side in ("", c.swing)]
+    if kind != "take_step" or forced.step_length is None or forced.step_bearing is None:
+        return min(members, key=lambda c: c.score) if members else None
+    heading = no_action.direction + math.radians(forced.step_bearing)
+    wanted = forced.step_length * np.array([math.cos(heading), math.sin(heading)])
+    steps = [c for c in members if c.step is not None]
+    return min(steps, key=lambda c: float(np.linalg.norm(c.step - wanted))) if steps else None
+
+
 def choose(
     candidates: list[Candidate],
     regions: list[SafeRegion],
@@ -44,12 +73,18 @@ def choose(
     w1: float = 0.5,
     w2: float = 0.5,
     allow_capture: bool = False,
+    forced: Forced = Forced(),
+    capture: str = "off",
 ) -> Plan:
     for candidate in candidates:
         candidate.score = score(candidate.direction, regions, w1, w2)
     usable = [c for c in candidates if c.kind == "no_action" or allow_capture or not c.capturing]
     no_action = _best(usable, "no_action")
     assert no_action is not None
+    capturing = [c for c in candidates if c.kind == "take_step" and c.capture_margin > 0.0]
+    if mode == "auto" and capture == "prefer" and capturing:  # stop the fall: the widest capture margin
+        chosen = max(capturing, key=lambda c: c.capture_margin)
+        return Plan(chosen, "", None, candidates)
     if mode == "auto":
         chosen = None
         if selection == "cascade":
@@ -65,7 +100,11 @@ def choose(
         )
     else:
         kind = {"take_step_pis": "take_step", "whole_body_is": "no_action"}.get(mode, mode)
-        chosen = _best(usable, kind) or no_action
+        chosen = (
+            _forced(candidates, kind, no_action, forced)
+            if forced.swing_side or forced.step_length is not None
+            else _best(usable, kind)
+        ) or no_action
         shaping = {"take_step_pis": "pis", "whole_body_is": "wbis"}.get(mode, "")
         shaping = shaping if chosen.kind == kind else ""
     return Plan(chosen, shaping, desired_direction(chosen.direction, regions), candidates)

@@ -32,8 +32,20 @@ from fallbench.preimpact.direction.inertia import (
     inertia_jacobian,
     to_vector,
 )
+from fallbench.preimpact.direction.oracle import oracle_subset, simulate
 from fallbench.preimpact.direction.scoring import score
-from fallbench.preimpact.direction.selection import MODES, SELECTIONS, Plan, choose
+from fallbench.preimpact.direction.selection import (
+    CAPTURE,
+    MODES,
+    PARTIAL_SHAPING,
+    PREDICTORS,
+    SELECTIONS,
+    SIDES,
+    WHOLE_BODY_SHAPING,
+    Forced,
+    Plan,
+    choose,
+)
 from fallbench.preimpact.direction.stepping import foot_to_foot_jacobian, swing_velocity
 from fallbench.preimpact.direction.support import nearest_pivot, sole_corners
 from fallbench.preimpact.direction.swing import SwingPath
@@ -55,7 +67,15 @@ def _yaw_only(rotation: np.ndarray) -> np.ndarray:
 class DirectionStrategy(Strategy):
     name = "direction"
     defaults = DIRECTION_PARAMS
-    choices = {"mode": MODES, "selection": SELECTIONS}
+    choices = {
+        "mode": MODES,
+        "selection": SELECTIONS,
+        "swing_side": SIDES,
+        "predictor": PREDICTORS,
+        "partial_shaping": PARTIAL_SHAPING,
+        "whole_body_shaping": WHOLE_BODY_SHAPING,
+        "capture": CAPTURE,
+    }
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
@@ -79,7 +99,8 @@ class DirectionStrategy(Strategy):
         self.grid = StepGrid(
             np.arange(config.step_radius_min, config.step_radius_max + 1e-9, config.step_radius_step),
             np.radians(np.arange(0.0, 360.0, config.step_heading_step)),
-            config.foot_speed,
+            config.step_time_offset,
+            config.step_time_per_m,
             config.min_foot_separation,
             2 * config.robot_radius,
         )
@@ -120,7 +141,9 @@ class DirectionStrategy(Strategy):
         if self.plan is None:
             if not self.trigger.update(t, xi):
                 return None
-            self._plan(data, com, com_velocity)
+            self._plan(t, data, com, com_velocity)
+            if self.config.predictor == "oracle":  # the rollouts left the shared Pinocchio data elsewhere
+                state = RobotState.measure(self.P, *self.P.state(data.qpos, data.qvel))
         self._track(t, data, com, com_velocity)
         command = self._control(t, data, state, xi)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
@@ -134,7 +157,7 @@ class DirectionStrategy(Strategy):
 
     # ------------------------------------------------------------------ planning
 
-    def _plan(self, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
+    def _plan(self, t: float, data: mujoco.MjData, com: np.ndarray, com_velocity: np.ndarray) -> None:
         started = time.perf_counter()
         config = self.config
         self.origin = com[:2].copy()
@@ -149,6 +172,10 @@ class DirectionStrategy(Strategy):
         self.sole_centres = {side: corners.mean(axis=0) for side, corners in soles.items()}
         state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
         candidates, _ = evaluate(soles, state, self.grid, self.objects)
+        if config.predictor == "oracle":  # each candidate simulated: perfect, not real-time prediction
+            candidates = oracle_subset(candidates)
+            for candidate in candidates:
+                candidate.direction, candidate.capturing = simulate(self, data, t, candidate)
         self.plan = choose(
             candidates,
             self.regions,
@@ -157,7 +184,16 @@ class DirectionStrategy(Strategy):
             config.w1,
             config.w2,
             config.allow_capture,
+            Forced(config.swing_side, config.step_length, config.step_bearing),
+            config.capture,
         )
+        shaping = self.plan.inertia_shaping
+        if (
+            config.predictor == "oracle"  # run the chosen candidate as it was simulated: no shaping
+            or (shaping == "pis" and config.partial_shaping == "off")
+            or (shaping == "wbis" and config.mode == "auto" and config.whole_body_shaping == "off")
+        ):
+            self.plan.inertia_shaping = ""
         self.plan_ms = (time.perf_counter() - started) * 1e3
 
     # ------------------------------------------------------------------ control
@@ -237,6 +273,8 @@ class DirectionStrategy(Strategy):
             or config.mode != "auto"
             or plan.chosen.kind == "no_action"
             or plan.inertia_shaping == "wbis"
+            or config.predictor == "oracle"
+            or config.whole_body_shaping == "off"
         ):
             return
         if plan.chosen.kind == "take_step" and self.step_done is None:
@@ -286,7 +324,7 @@ class DirectionStrategy(Strategy):
             placement = self.leg_columns[plan.chosen.swing]
             columns = (
                 self.upper_columns
-                if plan.chosen.kind == "take_step"
+                if plan.chosen.kind == "take_step" or self.config.partial_shaping == "upper_body"
                 else np.setdiff1d(np.arange(model.nv - 6), placement)
             )
         rhs = self.config.inertia_gain * error - jacobian[:, placement] @ qdot[placement]
@@ -350,6 +388,14 @@ class DirectionStrategy(Strategy):
                 and self.step_error <= self.config.step_tolerance
             )
             row["step_error"] = self.step_error
+            row["step_landed_time"] = (  # s after the control trigger
+                self.step_done - self.trigger.time
+                if self.step_done is not None and self.trigger.time is not None
+                else math.nan
+            )
+            row["step_length"] = (
+                float(np.linalg.norm(plan.chosen.step)) if plan.chosen.step is not None else math.nan
+            )
             assert plan.chosen.target is not None
             row["step_target_x"], row["step_target_y"] = (float(x) for x in plan.chosen.target)
         if plan:

@@ -1,0 +1,128 @@
+"""004 judged where steering can matter: the deflection a fall needs to reach a safe region, forced
+candidates for the authority suite, the authority span per push, and the first claim over the hits
+whose need lies within it (hand-made rows)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fallbench.preimpact.direction.candidates import Candidate
+from fallbench.preimpact.direction.geometry import SafeRegion, needed_deflection
+from fallbench.preimpact.direction.selection import Forced, choose
+from fallbench.report.direction_judge import authority_runs, authority_table, judge_hits, judged_table
+
+SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+def test_needed_deflection_is_the_signed_turn_to_the_nearest_region_edge() -> None:
+    regions = [SafeRegion(math.radians(40), math.radians(30))]  # safe from 40 to 70 deg
+    assert needed_deflection(math.radians(50), regions) == 0.0
+    assert math.degrees(needed_deflection(math.radians(10), regions)) == pytest.approx(30.0)
+    assert math.degrees(needed_deflection(math.radians(100), regions)) == pytest.approx(-30.0)
+    assert math.degrees(needed_deflection(math.radians(350), regions)) == pytest.approx(50.0)  # across 0
+    assert math.isnan(needed_deflection(0.0, []))
+
+
+def _step(swing: str, offset: tuple[float, float], direction_deg: float) -> Candidate:
+    return Candidate(
+        "take_step",
+        swing,
+        np.array(offset),
+        SQUARE,
+        direction=math.radians(direction_deg),
+        step=np.array(offset),
+    )
+
+
+def test_a_forced_step_is_the_one_nearest_the_asked_length_and_bearing() -> None:
+    no_action = Candidate("no_action", None, None, SQUARE, direction=math.radians(90))  # falls toward +y
+    steps = [_step("left", (0.0, 0.45), 95), _step("left", (-0.3, 0.3), 120), _step("right", (0.3, 0.3), 60)]
+    regions = [SafeRegion(0.0, 2 * math.pi)]
+    plan = choose([no_action, *steps], regions, mode="take_step", forced=Forced("", 0.45, -45.0))
+    assert plan.chosen is steps[2]  # 45 deg clockwise of +y is (+x, +y)
+    plan = choose([no_action, *steps], regions, mode="take_step", forced=Forced("", 0.45, 45.0))
+    assert plan.chosen is steps[1]
+    lift = [Candidate("lift_leg", side, None, SQUARE, direction=0.0) for side in ("left", "right")]
+    plan = choose([no_action, *lift], regions, mode="lift_leg", forced=Forced("right"))
+    assert plan.chosen.swing == "right"
+
+
+def _authority_rows() -> pd.DataFrame:
+    cell = {
+        "robot": "talos",
+        "force": 400.0,
+        "push_direction": 0.0,
+        "scenario": "dir_authority",
+        "status": "ok",
+    }
+    rows = [cell | {"pre_impact": "none", "actual_fall_direction_deg": 350.0, "actual_fall_end": "touchdown"}]
+    for strategy, deg, end in [
+        ("no_action", 352.0, "touchdown"),
+        ("lift_leg_left", 20.0, "touchdown"),  # +30 deg
+        ("take_step_right", 330.0, "touchdown"),  # -20 deg
+        ("take_step_left", 90.0, "run_end"),  # stayed up: no direction
+    ]:
+        rows.append(
+            cell
+            | {
+                "pre_impact": "direction",
+                "direction_strategy": strategy,
+                "actual_fall_direction_deg": deg,
+                "actual_fall_end": end,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def test_authority_spans_the_deflections_of_the_candidates_that_fell() -> None:
+    table = authority_table(authority_runs(_authority_rows(), results=None)).iloc[0]  # type: ignore[arg-type]
+    assert table["min deflection (deg)"] == -20.0 and table["max deflection (deg)"] == 30.0
+    assert table["lift_leg"] == "+30..+30" and table["stayed up"] == 1
+
+
+def test_the_first_claim_is_judged_over_hits_whose_need_is_within_authority() -> None:
+    table = authority_table(authority_runs(_authority_rows(), results=None))  # type: ignore[arg-type]
+    pairs = pd.DataFrame(
+        {
+            "scenario": "dir_x",
+            "none_hit": [True, True, True, False],
+            "direction_hit": [False, True, True, False],
+            "need_deg": [25.0, -15.0, 60.0, 0.0],  # within, within, beyond, (clear)
+            "robot": "talos",
+            "force": [390.0, 420.0, 400.0, 400.0],
+            "push_direction": [10.0, 350.0, 0.0, 0.0],
+            "none_run_id": ["a", "b", "c", "d"],
+        }
+    )
+    hits = judge_hits(pairs, results=None, table=table)  # type: ignore[arg-type]
+    assert hits.within_authority.tolist() == [True, True, False]
+    row = judged_table(pairs, hits).iloc[0]
+    assert row["hits within authority"] == 2 and row["avoided, within authority"] == "1/2 (50 %)"
+    assert (
+        row["avoided, all hits"] == "1/3 (33 %)"
+        and row["need <= 15 / 15-30 / 30-45 / > 45 deg"] == "1 / 1 / 0 / 1"
+    )
+
+
+def test_capture_prefer_takes_the_step_with_the_widest_capture_margin() -> None:
+    no_action = Candidate("no_action", None, None, SQUARE, direction=0.0)
+    steps = [_step("left", (0.0, 0.3), 90), _step("right", (0.3, 0.0), 0), _step("left", (0.0, 0.45), 90)]
+    steps[0].capture_margin, steps[1].capture_margin, steps[2].capture_margin = 0.02, 0.08, -0.1
+    regions = [SafeRegion(0.0, 2 * math.pi)]
+    plan = choose([no_action, *steps], regions, capture="prefer")
+    assert plan.chosen is steps[1] and plan.inertia_shaping == "" and plan.desired is None
+    assert choose([no_action, *steps], regions, capture="off").chosen is no_action  # NA safe: cascade
+
+
+def test_authority_and_radius_commands_fail_cleanly_without_a_store(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from fallbench.cli import app
+
+    for command in ("authority", "radius"):
+        result = CliRunner().invoke(app, ["direction", command, "--results", str(tmp_path / "nothing")])
+        assert result.exit_code == 2 and result.output.startswith("error: ")
