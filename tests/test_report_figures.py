@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.report import drawing
-from fallbench.report.filmstrips import damage, picks
+from fallbench.report.filmstrips import damage, family_picks, picks
 from fallbench.report.forest import paired_changes
 from fallbench.results import store
 
@@ -61,6 +61,33 @@ def test_filmstrips_pick_each_arms_typical_and_worst_fall_under_any_name() -> No
     }
     assert chosen[("none", "stiff", "worst")].family == "my_own_fall"
     assert chosen[("none", "stiff", "worst")].damage == pytest.approx(5 / 6)
+
+
+def test_filmstrips_by_default_show_the_best_the_reference_and_the_worst_fall() -> None:
+    """`--filmstrips family` (the default): the typical fall of the best arm and of none + stiff,
+    and the family's worst fall over every arm; a third arm's falls are not drawn."""
+    heads = {
+        ("none", "stiff"): [100.0, 500.0, 300.0],
+        ("reshape", "zero"): [600.0, 200.0, 400.0],
+        ("direction", "oneshot"): [150.0, 250.0, 350.0],
+    }
+    runs = pd.DataFrame(
+        [
+            _row(f"{s[0]}{p[0]}{seed}", "mine", f"mine#s{seed}", seed, s, p, contact_force_peak_head=v)
+            for (s, p), values in heads.items()
+            for seed, v in enumerate(values)
+        ]
+    )
+    arms = [("direction", "oneshot"), ("none", "stiff"), ("reshape", "zero")]
+    chosen = family_picks("talos", "mine", runs, arms, "family")
+    assert [(p.pre_impact, p.role, p.run_id) for p in chosen] == [
+        ("direction", "typical", "do1"),  # the best arm's median (250 N)
+        ("none", "typical", "ns2"),  # the reference's median (300 N)
+        ("reshape", "worst", "rz0"),  # 600 N: the family's worst
+    ]
+    assert len(family_picks("talos", "mine", runs, arms, "all")) == 6
+    with pytest.raises(ValueError, match="scope"):
+        family_picks("talos", "mine", runs, arms, "some")
 
 
 def test_damage_orients_every_measure_toward_more_damage() -> None:
