@@ -4,6 +4,7 @@ the papers' figures and claims; index.html, one page per family, and summary.md.
 from __future__ import annotations
 
 import html
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +41,8 @@ class Family:
     picks: list[Pick]  # the falls shown as filmstrips (`--filmstrips`)
     changes: pd.DataFrame  # paired changes against none + stiff (the forest plot's numbers)
     arm_picks: list[Pick]  # the typical and worst fall of every (strategy, policy)
+    relative: pd.DataFrame | None = None  # ranking.relative_changes, set by `_tables`
+    medians: pd.DataFrame | None = None  # sweeps.median_table, set by `_tables`
 
     @property
     def table(self) -> pd.DataFrame:
@@ -266,9 +269,9 @@ def _family_page(
         "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
         pages.table(family.table),
         "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
-        pages.table(ranking.relative_changes(group)),
+        pages.table(family.relative),
         "<h2>Medians per strategy and policy</h2>",
-        pages.table(median_table(group).round(3), index=True),
+        pages.table(family.medians.round(3), index=True),
     ]
     mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family.name}_")]
     if mine:
@@ -321,6 +324,7 @@ class _Sections:
     verdicts: pd.DataFrame
     step_changes: pd.DataFrame  # headline metrics' change when the physics step is halved
     failed: pd.DataFrame
+    robot_changes: dict[str, pd.DataFrame]  # robot -> change against none + stiff, all its families
     set_aside: int = 0  # older duplicates of a fall left out (grouping.newest_runs)
 
     @property
@@ -350,39 +354,62 @@ def _sections(
     families = _families(per_robot, options.filmstrips)
     paper = _paper_jobs(families, results, out, options.paper_figures)
     chosen = [p for f in families for p in f.picks]
-    jobs = _forest_jobs(per_robot, families, out) + filmstrip_figures(chosen, results, out)
+    # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
+    # (300 MB), and the renderer's libraries would otherwise count as a leak
+    jobs = filmstrip_figures(chosen, results, out) + _forest_jobs(per_robot, families, out)
     jobs += [job for family_jobs in paper.values() for job in family_jobs]
     jobs += _summary_figure_jobs(runs, out) + _direction_job(runs, results, out)
-    drawn = draw(jobs, results, out, jobs=options.jobs, vector=options.svg)
+    with ThreadPoolExecutor(max_workers=1) as waiting:
+        # the worker processes draw while this one computes the tables (one process: in turn, as a
+        # renderer belongs to the thread that made it)
+        pending = waiting.submit(draw, jobs, results, out, jobs=options.jobs, vector=options.svg)
+        if options.jobs <= 1:
+            pending.result()
+        tables = _tables(runs, halved, per_robot, families)
+        drawn = pending.result()
     options.drawn, options.cached = drawn.drawn, drawn.cached
 
     def paths(prefix: str) -> list[Path]:
         return [p for name, ps in drawn.paths.items() if name.startswith(prefix) for p in ps]
 
-    sensitivity = {
-        sweep.title: sensitivity_table(swept, sweep)
-        for sweep in SWEEPS
-        for swept in [sensitivity_runs(runs, sweep)]
-        if len(swept)
-    }
     direction_paths, direction_tables = paths("004:report"), drawn.payloads.get("004:report", {})
-    claims = robust_claims(claims_table(runs), halved)
     return _Sections(
         families=families,
         drawn=drawn,
         paper=paper,
         sweep_paths=paths("sweeps:"),
         pre_paths=paths("preimpact:") + paths("reshape:") + direction_paths,
-        pre_tables=preimpact_tables(runs) | direction_tables,
+        pre_tables=tables.pop("pre_tables") | direction_tables,
         sensitivity_paths=paths("sensitivity:"),
-        sensitivity=sensitivity,
-        medians=median_table(runs),
-        claims=claims,
-        verdicts=verdict_matrix(claims),
-        step_changes=step_changes(runs, halved) if len(halved) else pd.DataFrame(),
         failed=runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]],
         set_aside=options.set_aside,
+        **tables,
     )
+
+
+def _tables(
+    runs: pd.DataFrame, halved: pd.DataFrame, per_robot: dict[str, pd.DataFrame], families: list[Family]
+) -> dict:
+    """Every table of the report that reads metric rows only (computed while the figures are drawn)."""
+    claims = robust_claims(claims_table(runs), halved)
+    for family in families:  # computed once, here, for their pages
+        family.relative, family.medians = ranking.relative_changes(family.runs), median_table(family.runs)
+    return {
+        "sensitivity": {
+            sweep.title: sensitivity_table(swept, sweep)
+            for sweep in SWEEPS
+            for swept in [sensitivity_runs(runs, sweep)]
+            if len(swept)
+        },
+        "pre_tables": preimpact_tables(runs),
+        "medians": median_table(runs),
+        "claims": claims,
+        "verdicts": verdict_matrix(claims),
+        "step_changes": step_changes(runs, halved) if len(halved) else pd.DataFrame(),
+        "robot_changes": {
+            robot: ranking.relative_changes(robot_runs) for robot, robot_runs in per_robot.items()
+        },
+    }
 
 
 def _family_pages(out: Path, sections: _Sections) -> list[Path]:
@@ -454,10 +481,10 @@ def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Se
             "(the claims table's last columns).</p>",
             pages.table(sections.step_changes),
         ]
-    for robot, robot_runs in per_robot.items():
+    for robot, changes in sections.robot_changes.items():
         body += [
             f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
-            pages.table(ranking.relative_changes(robot_runs)),
+            pages.table(changes),
         ]
     body.append("<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>")
     for title, frame in sections.pre_tables.items():

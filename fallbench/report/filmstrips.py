@@ -126,6 +126,8 @@ def figure_name(run_id: str) -> str:
 
 
 def filmstrip_figures(chosen: list[Pick], results: Path, out: Path) -> list[Figure]:
-    """One figure per chosen run (a run chosen twice is drawn once)."""
-    run_ids = list(dict.fromkeys(p.run_id for p in chosen))
+    """One figure per chosen run (a run chosen twice is drawn once), those of one robot and family
+    next to each other: a worker draws neighbours in turn and reuses the renderer of their scene."""
+    ordered = sorted(chosen, key=lambda p: (p.robot, p.family))  # stable: ranking order within
+    run_ids = list(dict.fromkeys(p.run_id for p in ordered))
     return [Figure(figure_name(r), draw_filmstrip, (results, r, out), (r,)) for r in run_ids]
