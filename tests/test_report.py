@@ -28,7 +28,9 @@ def test_report_writes_figures_tables_and_html(tmp_path: Path, sweep) -> None:
     results, out = tmp_path / "results", tmp_path / "reports"
     run = sweep(suite, results)
     assert run.exit_code == 0, run.output
-    result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--svg"])
+    result = CliRunner().invoke(
+        app, ["report", "--results", str(results), "--out", str(out), "--svg", "--paper-figures", "all"]
+    )
     assert result.exit_code == 0, result.output
     for stem in ("fig6a", "fig6b", "fig4"):
         assert len(list(out.glob(f"{stem}_drop_initial_height_1*.png"))) == 1

@@ -253,24 +253,40 @@ def test_png_by_default_svg_on_request_and_forest_plots_on_top(tmp_path: Path) -
 
 @pytest.mark.slow
 def test_report_of_scenarios_with_names_of_their_own(tmp_path: Path, sweep) -> None:
-    """A drop under another name: filmstrips of each policy's typical fall, 002's figures, a forest plot."""
+    """A drop under another name: a forest plot, 002's figures at one point, the default filmstrips
+    (the best's and none + stiff's typical fall, the worst); with `--filmstrips all --paper-figures
+    all` every policy's typical and worst fall and 002's figures at every point."""
     suite = tmp_path / "mine.yaml"
     suite.write_text(
         "name: my_drop\nduration: 0.8\ninitial: {height: 0.5}\nsweep:\n  initial.height: [0.5, 0.9]\n"
     )
-    results, out = tmp_path / "results", tmp_path / "reports"
+    results, out, every = tmp_path / "results", tmp_path / "reports", tmp_path / "every"
     assert sweep(suite, results).exit_code == 0
-    done = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--jobs", "2"])
+    report = ["report", "--results", str(results), "--jobs", "2"]
+    done = CliRunner().invoke(app, [*report, "--out", str(out)])
     assert done.exit_code == 0, done.output
     page = (out / "family_talos_my_drop.html").read_text()
     assert 'src="forest_family_talos_my_drop.png"' in page
-    assert len(list(out.glob("fig6a_my_drop_initial_height_*.png"))) == 2
+    assert len(list(out.glob("fig6a_my_drop_initial_height_*.png"))) == 1
+    done = CliRunner().invoke(
+        app, [*report, "--out", str(every), "--filmstrips", "all", "--paper-figures", "all"]
+    )
+    assert done.exit_code == 0, done.output
+    assert len(list(every.glob("fig6a_my_drop_initial_height_*.png"))) == 2
+    bad = CliRunner().invoke(app, [*report, "--out", str(tmp_path / "bad"), "--filmstrips", "some"])
+    assert bad.exit_code == 2 and "error: --filmstrips" in bad.stderr and not (tmp_path / "bad").exists()
     if "no OpenGL context" in page:
         pytest.skip("no OpenGL context: filmstrips are skipped with the reason")
-    chosen = picks(store.load_metrics(results))
-    assert {(p.policy, p.role) for p in chosen if p.role == "typical"} == {
+    runs = store.load_metrics(results)
+    for folder, scope in ((out, "family"), (every, "all")):
+        chosen = picks(runs, scope)
+        shown = {p.name for p in folder.glob("filmstrip_*.png")}
+        assert shown == {f"filmstrip_{p.run_id}.png" for p in chosen}
+        text = (folder / "family_talos_my_drop.html").read_text()
+        assert all(f'src="filmstrip_{p.run_id}.png"' in text for p in chosen)
+    assert {(p.policy, p.role) for p in picks(runs, "all") if p.role == "typical"} == {
         ("stiff", "typical"),
         ("zero", "typical"),
     }
-    assert {p.name for p in out.glob("filmstrip_*.png")} == {f"filmstrip_{p.run_id}.png" for p in chosen}
-    assert all(f'src="filmstrip_{p.run_id}.png"' in page for p in chosen)
+    family = {p.run_id for p in picks(runs, "family")}
+    assert 1 < len(family) <= 3 and family <= {p.run_id for p in picks(runs, "all")}
