@@ -290,3 +290,18 @@ def test_report_of_scenarios_with_names_of_their_own(tmp_path: Path, sweep) -> N
     }
     family = {p.run_id for p in picks(runs, "family")}
     assert 1 < len(family) <= 3 and family <= {p.run_id for p in picks(runs, "all")}
+
+
+def test_envelope_keeps_every_peak_of_a_long_series() -> None:
+    """002's series are cut to 2 samples per pixel column: each bucket's smallest and largest value,
+    in time order, so a one-sample landing spike and the lowest dip survive exactly."""
+    from fallbench.report.figures import envelope
+
+    t = np.arange(6000) * 0.0005
+    y = np.sin(t * 7.0)
+    y[3001], y[17] = 250.0, -80.0  # a spike and a dip of one sample each
+    shown_t, shown_y = envelope(t, y, buckets=800)
+    assert len(shown_y) <= 1600 and np.all(np.diff(shown_t) > 0)
+    assert shown_y.max() == 250.0 and shown_t[shown_y.argmax()] == t[3001]
+    assert shown_y.min() == -80.0 and shown_t[shown_y.argmin()] == t[17]
+    assert envelope(t[:100], y[:100], buckets=800)[1].tolist() == y[:100].tolist()  # short: unchanged
