@@ -494,6 +494,16 @@ def report_command(
     progress: bool = typer.Option(True, help="Show a progress bar."),
     jobs: int = typer.Option(2, "--jobs", "-j", min=1, help="Processes drawing figures in parallel."),
     svg: bool = typer.Option(False, "--svg", help="Also write every figure as SVG (vector) next to its PNG."),
+    filmstrips: str = typer.Option(
+        "family",
+        help="Falls rendered per family: `family` (the typical fall of the best strategy + policy and of "
+        "none + stiff, and the worst fall) or `all` (the typical and the worst fall of every strategy + policy).",
+    ),
+    paper_figures: str = typer.Option(
+        "chosen",
+        help="Points with 002's figures per family: `chosen` (the point of its worst shown fall) or `all` "
+        "(every point whose runs have what they need).",
+    ),
 ) -> None:
     """Answer first (forest plots, rankings), then per family its representative falls and the papers'
     figures per point, sweep comparisons and the claims; figures whose runs did not change are kept."""
@@ -502,7 +512,14 @@ def report_command(
 
     if (results / "runs").is_dir():
         consolidate(results)  # runs stored by `run one` or an interrupted sweep
-    options = Options(jobs=jobs, svg=svg)
+    from fallbench.report import PAPER_FIGURES
+    from fallbench.report.filmstrips import SCOPES
+
+    if filmstrips not in SCOPES:
+        fail(f"--filmstrips: {filmstrips!r} is not one of {', '.join(SCOPES)}")
+    if paper_figures not in PAPER_FIGURES:
+        fail(f"--paper-figures: {paper_figures!r} is not one of {', '.join(PAPER_FIGURES)}")
+    options = Options(jobs=jobs, svg=svg, filmstrips=filmstrips, paper_figures=paper_figures)
     try:
         paths = build_report(results, out, progress=progress and sys.stderr.isatty(), options=options)
     except FileNotFoundError as exc:

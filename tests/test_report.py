@@ -28,7 +28,9 @@ def test_report_writes_figures_tables_and_html(tmp_path: Path, sweep) -> None:
     results, out = tmp_path / "results", tmp_path / "reports"
     run = sweep(suite, results)
     assert run.exit_code == 0, run.output
-    result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--svg"])
+    result = CliRunner().invoke(
+        app, ["report", "--results", str(results), "--out", str(out), "--svg", "--paper-figures", "all"]
+    )
     assert result.exit_code == 0, result.output
     for stem in ("fig6a", "fig6b", "fig4"):
         assert len(list(out.glob(f"{stem}_drop_initial_height_1*.png"))) == 1
@@ -284,3 +286,59 @@ def test_verdict_matrix_has_one_row_per_scope() -> None:
     assert matrix.loc["1 m drop", "zero: at the stop"] == "does not hold" and pd.isna(
         matrix.loc["all drops", "zero: at the stop"]
     )
+
+
+def test_newest_run_of_each_fall_is_kept_by_its_stored_time(tmp_path: Path) -> None:
+    """Two rows of one fall (a sweep run again after a code change): the one stored last is kept,
+    whatever its id; a different fall is untouched."""
+    import os
+
+    from fallbench.report.grouping import newest_runs
+
+    key = {"robot": "talos", "scenario": "drop", "point": "drop#s0", "seed": 0, "pre_impact": "none"}
+    runs = pd.DataFrame(
+        [
+            key | {"run_id": "aaa", "policy": "stiff", "imu_peak_z": 1.0},  # stored last
+            key | {"run_id": "bbb", "policy": "stiff", "imu_peak_z": 2.0},  # stored first
+            key | {"run_id": "ccc", "policy": "zero", "imu_peak_z": 3.0},
+        ]
+    )
+    for rid, stored in (("aaa", 2_000_000), ("bbb", 1_000_000), ("ccc", 1_000_000)):
+        folder = tmp_path / "runs" / rid
+        folder.mkdir(parents=True)
+        (folder / "metrics.json").write_text("{}")
+        os.utime(folder / "metrics.json", (stored, stored))
+    kept, set_aside = newest_runs(runs, tmp_path)
+    assert set_aside == 1 and kept.run_id.tolist() == ["aaa", "ccc"]
+    assert newest_runs(runs.iloc[[0, 2]], tmp_path)[1] == 0
+
+
+@pytest.mark.slow
+def test_report_of_a_store_holding_a_fall_twice_uses_the_newest(tmp_path: Path, sweep) -> None:
+    """A store where each fall of one policy was stored again under a new id (as after a code
+    change) gives a report; the newer runs' numbers are the ones shown, and the opening line says
+    how many older ones were set aside."""
+    import os
+    import shutil
+
+    from fallbench.results import store
+
+    suite = tmp_path / "drop.yaml"
+    suite.write_text(SUITE)
+    results, out = tmp_path / "results", tmp_path / "reports"
+    assert sweep(suite, results).exit_code == 0
+    for rid in store.load_metrics(results).query("policy == 'zero'").run_id:
+        again = store.run_dir(results, f"{rid}v2")
+        shutil.copytree(store.run_dir(results, rid), again)
+        stored = json.loads((again / "metrics.json").read_text())
+        stored["metrics"] |= {"run_id": again.name, "knee_limit_margin": 12345.0}
+        (again / "metrics.json").write_text(json.dumps(stored))
+        later = (again / "metrics.json").stat().st_mtime + 60
+        os.utime(again / "metrics.json", (later, later))
+    store.consolidate(results)
+    assert len(store.load_metrics(results)) == 6
+    result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--jobs", "1"])
+    assert result.exit_code == 0, result.output
+    assert "4 runs; 2 older run(s) of a fall stored again set aside" in (out / "index.html").read_text()
+    summary = (out / "summary.md").read_text()
+    assert "2 older run(s)" in summary.splitlines()[2] and "12345" in summary

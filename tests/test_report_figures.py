@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from fallbench.cli import app
 from fallbench.report import drawing
-from fallbench.report.filmstrips import damage, picks
+from fallbench.report.filmstrips import damage, family_picks, picks
 from fallbench.report.forest import paired_changes
 from fallbench.results import store
 
@@ -61,6 +61,33 @@ def test_filmstrips_pick_each_arms_typical_and_worst_fall_under_any_name() -> No
     }
     assert chosen[("none", "stiff", "worst")].family == "my_own_fall"
     assert chosen[("none", "stiff", "worst")].damage == pytest.approx(5 / 6)
+
+
+def test_filmstrips_by_default_show_the_best_the_reference_and_the_worst_fall() -> None:
+    """`--filmstrips family` (the default): the typical fall of the best arm and of none + stiff,
+    and the family's worst fall over every arm; a third arm's falls are not drawn."""
+    heads = {
+        ("none", "stiff"): [100.0, 500.0, 300.0],
+        ("reshape", "zero"): [600.0, 200.0, 400.0],
+        ("direction", "oneshot"): [150.0, 250.0, 350.0],
+    }
+    runs = pd.DataFrame(
+        [
+            _row(f"{s[0]}{p[0]}{seed}", "mine", f"mine#s{seed}", seed, s, p, contact_force_peak_head=v)
+            for (s, p), values in heads.items()
+            for seed, v in enumerate(values)
+        ]
+    )
+    arms = [("direction", "oneshot"), ("none", "stiff"), ("reshape", "zero")]
+    chosen = family_picks("talos", "mine", runs, arms, "family")
+    assert [(p.pre_impact, p.role, p.run_id) for p in chosen] == [
+        ("direction", "typical", "do1"),  # the best arm's median (250 N)
+        ("none", "typical", "ns2"),  # the reference's median (300 N)
+        ("reshape", "worst", "rz0"),  # 600 N: the family's worst
+    ]
+    assert len(family_picks("talos", "mine", runs, arms, "all")) == 6
+    with pytest.raises(ValueError, match="scope"):
+        family_picks("talos", "mine", runs, arms, "some")
 
 
 def test_damage_orients_every_measure_toward_more_damage() -> None:
@@ -226,24 +253,55 @@ def test_png_by_default_svg_on_request_and_forest_plots_on_top(tmp_path: Path) -
 
 @pytest.mark.slow
 def test_report_of_scenarios_with_names_of_their_own(tmp_path: Path, sweep) -> None:
-    """A drop under another name: filmstrips of each policy's typical fall, 002's figures, a forest plot."""
+    """A drop under another name: a forest plot, 002's figures at one point, the default filmstrips
+    (the best's and none + stiff's typical fall, the worst); with `--filmstrips all --paper-figures
+    all` every policy's typical and worst fall and 002's figures at every point."""
     suite = tmp_path / "mine.yaml"
     suite.write_text(
         "name: my_drop\nduration: 0.8\ninitial: {height: 0.5}\nsweep:\n  initial.height: [0.5, 0.9]\n"
     )
-    results, out = tmp_path / "results", tmp_path / "reports"
+    results, out, every = tmp_path / "results", tmp_path / "reports", tmp_path / "every"
     assert sweep(suite, results).exit_code == 0
-    done = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--jobs", "2"])
+    report = ["report", "--results", str(results), "--jobs", "2"]
+    done = CliRunner().invoke(app, [*report, "--out", str(out)])
     assert done.exit_code == 0, done.output
     page = (out / "family_talos_my_drop.html").read_text()
     assert 'src="forest_family_talos_my_drop.png"' in page
-    assert len(list(out.glob("fig6a_my_drop_initial_height_*.png"))) == 2
+    assert len(list(out.glob("fig6a_my_drop_initial_height_*.png"))) == 1
+    done = CliRunner().invoke(
+        app, [*report, "--out", str(every), "--filmstrips", "all", "--paper-figures", "all"]
+    )
+    assert done.exit_code == 0, done.output
+    assert len(list(every.glob("fig6a_my_drop_initial_height_*.png"))) == 2
+    bad = CliRunner().invoke(app, [*report, "--out", str(tmp_path / "bad"), "--filmstrips", "some"])
+    assert bad.exit_code == 2 and "error: --filmstrips" in bad.stderr and not (tmp_path / "bad").exists()
     if "no OpenGL context" in page:
         pytest.skip("no OpenGL context: filmstrips are skipped with the reason")
-    chosen = picks(store.load_metrics(results))
-    assert {(p.policy, p.role) for p in chosen if p.role == "typical"} == {
+    runs = store.load_metrics(results)
+    for folder, scope in ((out, "family"), (every, "all")):
+        chosen = picks(runs, scope)
+        shown = {p.name for p in folder.glob("filmstrip_*.png")}
+        assert shown == {f"filmstrip_{p.run_id}.png" for p in chosen}
+        text = (folder / "family_talos_my_drop.html").read_text()
+        assert all(f'src="filmstrip_{p.run_id}.png"' in text for p in chosen)
+    assert {(p.policy, p.role) for p in picks(runs, "all") if p.role == "typical"} == {
         ("stiff", "typical"),
         ("zero", "typical"),
     }
-    assert {p.name for p in out.glob("filmstrip_*.png")} == {f"filmstrip_{p.run_id}.png" for p in chosen}
-    assert all(f'src="filmstrip_{p.run_id}.png"' in page for p in chosen)
+    family = {p.run_id for p in picks(runs, "family")}
+    assert 1 < len(family) <= 3 and family <= {p.run_id for p in picks(runs, "all")}
+
+
+def test_envelope_keeps_every_peak_of_a_long_series() -> None:
+    """002's series are cut to 2 samples per pixel column: each bucket's smallest and largest value,
+    in time order, so a one-sample landing spike and the lowest dip survive exactly."""
+    from fallbench.report.figures import envelope
+
+    t = np.arange(6000) * 0.0005
+    y = np.sin(t * 7.0)
+    y[3001], y[17] = 250.0, -80.0  # a spike and a dip of one sample each
+    shown_t, shown_y = envelope(t, y, buckets=800)
+    assert len(shown_y) <= 1600 and np.all(np.diff(shown_t) > 0)
+    assert shown_y.max() == 250.0 and shown_t[shown_y.argmax()] == t[3001]
+    assert shown_y.min() == -80.0 and shown_t[shown_y.argmin()] == t[17]
+    assert envelope(t[:100], y[:100], buckets=800)[1].tolist() == y[:100].tolist()  # short: unchanged

@@ -4,6 +4,7 @@ the papers' figures and claims; index.html, one page per family, and summary.md.
 from __future__ import annotations
 
 import html
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,7 +17,7 @@ from fallbench.report.drawing import Drawn, Figure, draw
 from fallbench.report.figures import draw_paper_figures, paper_points
 from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
 from fallbench.report.forest import forest_figure, forest_markdown, paired_changes
-from fallbench.report.grouping import with_robot
+from fallbench.report.grouping import newest_runs, with_robot
 from fallbench.report.preimpact import (
     draw_reshaped_falls,
     first_impact_figure,
@@ -37,8 +38,11 @@ class Family:
     name: str
     runs: pd.DataFrame
     ranked: ranking.Ranked
-    picks: list[Pick]
+    picks: list[Pick]  # the falls shown as filmstrips (`--filmstrips`)
     changes: pd.DataFrame  # paired changes against none + stiff (the forest plot's numbers)
+    arm_picks: list[Pick]  # the typical and worst fall of every (strategy, policy)
+    relative: pd.DataFrame | None = None  # ranking.relative_changes, set by `_tables`
+    medians: pd.DataFrame | None = None  # sweeps.median_table, set by `_tables`
 
     @property
     def table(self) -> pd.DataFrame:
@@ -57,39 +61,44 @@ class Family:
         return pages.family_file(self.robot, self.name).removesuffix(".html")
 
 
-def _families(per_robot: dict[str, pd.DataFrame]) -> list[Family]:
+def _families(per_robot: dict[str, pd.DataFrame], filmstrips: str = "family") -> list[Family]:
     found = []
     for robot, robot_runs in per_robot.items():
         for family in ranking.families(robot_runs):
             group = robot_runs[robot_runs.scenario == family]
             done = ranking.ranked(group)
             arms = ranking.arm_order(group, done)
-            found.append(
-                Family(
-                    robot,
-                    family,
-                    group,
-                    done,
-                    family_picks(robot, family, group, arms),
-                    paired_changes(group, arms),
-                )
-            )
+            every_arm = family_picks(robot, family, group, arms, "all")
+            shown = every_arm if filmstrips == "all" else family_picks(robot, family, group, arms, filmstrips)
+            found.append(Family(robot, family, group, done, shown, paired_changes(group, arms), every_arm))
     return found
 
 
-MAX_FAMILY_POINTS = 12  # a family with more eligible points gets the paper figures of its chosen falls only
+PAPER_FIGURES = ("chosen", "all")  # `fallbench report --paper-figures`
 
 
-def _paper_jobs(families: list[Family], results: Path, out: Path) -> dict[str, list[Figure]]:
-    """Family stem -> the figures of 002 per point (`figures.paper_points`) and 004's top-down
-    plots (`none` and `direction` on the same point and policy, with a control origin): every
-    eligible point of a family with at most MAX_FAMILY_POINTS, else the points of its chosen falls."""
+def _paper_rows(family: Family, results: Path, which: str) -> list[tuple[str, pd.DataFrame]]:
+    """The points of a family that get 002's figures, as (point, its runs): with "all" every
+    eligible point (`figures.paper_points`; runs stored with their time series); with "chosen" one:
+    the point of its worst shown fall if eligible, else of its other shown falls in order, else
+    its first eligible point."""
+    eligible = paper_points(store.with_timeseries(results, family.runs))  # not --timeseries none
+    if which == "all" or not eligible:
+        return eligible
+    by_point = dict(eligible)
+    shown = sorted(family.picks, key=lambda p: p.role != "worst")  # the worst first, then in order
+    point = next((p.point for p in shown if p.point in by_point), eligible[0][0])
+    return [(point, by_point[point])]
+
+
+def _paper_jobs(
+    families: list[Family], results: Path, out: Path, which: str = "chosen"
+) -> dict[str, list[Figure]]:
+    """Family stem -> the figures of 002 per point (`_paper_rows`), 004's top-down plots (`none`
+    and `direction` on the same point and policy, with a control origin) and the reshaped falls
+    (each family's typical `reshape` fall, `preimpact.reshape_points`)."""
     jobs: dict[str, list[Figure]] = {}
     for family in families:
-        shown = {p.point for p in family.picks}
-        eligible = paper_points(store.with_timeseries(results, family.runs))  # not --timeseries none
-        if len(eligible) > MAX_FAMILY_POINTS:
-            eligible = [(point, rows) for point, rows in eligible if point in shown]
         mine = [
             Figure(
                 f"002:{family.robot}:{point}",
@@ -97,7 +106,7 @@ def _paper_jobs(families: list[Family], results: Path, out: Path) -> dict[str, l
                 (_slim(rows), results, out, point),
                 tuple(rows.run_id),
             )
-            for point, rows in eligible
+            for point, rows in _paper_rows(family, results, which)
         ]
         mine += _top_down_jobs(family, results, out)
         mine += [
@@ -107,7 +116,7 @@ def _paper_jobs(families: list[Family], results: Path, out: Path) -> dict[str, l
                 (rows, results, out, point, policy),
                 tuple(rows.run_id),
             )
-            for point, policy in reshape_points(family.picks)
+            for point, policy in reshape_points([p for p in family.arm_picks if p.role == "typical"])
             for rows in [_one_run_each(family, point, policy)]
         ]
         jobs[family.stem] = mine
@@ -233,7 +242,7 @@ def _forest(paths: list[Path], out: Path) -> list[str]:
 
 
 def _picked_strips(family: Family, drawn: Drawn, out: Path) -> list[str]:
-    """The family's representative falls: per strategy and policy (best first) typical and worst."""
+    """The family's representative falls (`Family.picks`, see DAMAGE_NOTE)."""
     body = []
     for pick in family.picks:
         paths = drawn.paths.get(figure_name(pick.run_id), [])
@@ -260,9 +269,9 @@ def _family_page(
         "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
         pages.table(family.table),
         "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
-        pages.table(ranking.relative_changes(group)),
+        pages.table(family.relative),
         "<h2>Medians per strategy and policy</h2>",
-        pages.table(median_table(group).round(3), index=True),
+        pages.table(family.medians.round(3), index=True),
     ]
     mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family.name}_")]
     if mine:
@@ -291,8 +300,10 @@ def _family_page(
 
 DAMAGE_NOTE = (
     "Chosen by the data: a run's damage is the mean, over the damage measures of the ranking, of its "
-    "percentile rank among the family's runs (1 = the most damage on every measure). Per strategy and "
-    "policy: the typical fall (damage nearest that strategy and policy's median) and the worst one."
+    "percentile rank among the family's runs (1 = the most damage on every measure). A typical fall "
+    "is the run of damage nearest its strategy and policy's median. Shown by default: the typical fall "
+    "of the best strategy and policy and of none + stiff, and the family's worst fall; with "
+    "`fallbench report --filmstrips all`: per strategy and policy its typical and its worst fall."
 )
 
 
@@ -313,6 +324,8 @@ class _Sections:
     verdicts: pd.DataFrame
     step_changes: pd.DataFrame  # headline metrics' change when the physics step is halved
     failed: pd.DataFrame
+    robot_changes: dict[str, pd.DataFrame]  # robot -> change against none + stiff, all its families
+    set_aside: int = 0  # older duplicates of a fall left out (grouping.newest_runs)
 
     @property
     def strip_paths(self) -> list[Path]:
@@ -338,41 +351,65 @@ def _sections(
     every table of the report; `halved` are the runs at another physics step, for the
     numerical-validity section only."""
     per_robot = ranking.robots(runs)
-    families = _families(per_robot)
-    paper = _paper_jobs(families, results, out)
+    families = _families(per_robot, options.filmstrips)
+    paper = _paper_jobs(families, results, out, options.paper_figures)
     chosen = [p for f in families for p in f.picks]
-    jobs = _forest_jobs(per_robot, families, out) + filmstrip_figures(chosen, results, out)
+    # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
+    # (300 MB), and the renderer's libraries would otherwise count as a leak
+    jobs = filmstrip_figures(chosen, results, out) + _forest_jobs(per_robot, families, out)
     jobs += [job for family_jobs in paper.values() for job in family_jobs]
     jobs += _summary_figure_jobs(runs, out) + _direction_job(runs, results, out)
-    drawn = draw(jobs, results, out, jobs=options.jobs, vector=options.svg)
+    with ThreadPoolExecutor(max_workers=1) as waiting:
+        # the worker processes draw while this one computes the tables (one process: in turn, as a
+        # renderer belongs to the thread that made it)
+        pending = waiting.submit(draw, jobs, results, out, jobs=options.jobs, vector=options.svg)
+        if options.jobs <= 1:
+            pending.result()
+        tables = _tables(runs, halved, per_robot, families)
+        drawn = pending.result()
     options.drawn, options.cached = drawn.drawn, drawn.cached
 
     def paths(prefix: str) -> list[Path]:
         return [p for name, ps in drawn.paths.items() if name.startswith(prefix) for p in ps]
 
-    sensitivity = {
-        sweep.title: sensitivity_table(swept, sweep)
-        for sweep in SWEEPS
-        for swept in [sensitivity_runs(runs, sweep)]
-        if len(swept)
-    }
     direction_paths, direction_tables = paths("004:report"), drawn.payloads.get("004:report", {})
-    claims = robust_claims(claims_table(runs), halved)
     return _Sections(
         families=families,
         drawn=drawn,
         paper=paper,
         sweep_paths=paths("sweeps:"),
         pre_paths=paths("preimpact:") + paths("reshape:") + direction_paths,
-        pre_tables=preimpact_tables(runs) | direction_tables,
+        pre_tables=tables.pop("pre_tables") | direction_tables,
         sensitivity_paths=paths("sensitivity:"),
-        sensitivity=sensitivity,
-        medians=median_table(runs),
-        claims=claims,
-        verdicts=verdict_matrix(claims),
-        step_changes=step_changes(runs, halved) if len(halved) else pd.DataFrame(),
         failed=runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]],
+        set_aside=options.set_aside,
+        **tables,
     )
+
+
+def _tables(
+    runs: pd.DataFrame, halved: pd.DataFrame, per_robot: dict[str, pd.DataFrame], families: list[Family]
+) -> dict:
+    """Every table of the report that reads metric rows only (computed while the figures are drawn)."""
+    claims = robust_claims(claims_table(runs), halved)
+    for family in families:  # computed once, here, for their pages
+        family.relative, family.medians = ranking.relative_changes(family.runs), median_table(family.runs)
+    return {
+        "sensitivity": {
+            sweep.title: sensitivity_table(swept, sweep)
+            for sweep in SWEEPS
+            for swept in [sensitivity_runs(runs, sweep)]
+            if len(swept)
+        },
+        "pre_tables": preimpact_tables(runs),
+        "medians": median_table(runs),
+        "claims": claims,
+        "verdicts": verdict_matrix(claims),
+        "step_changes": step_changes(runs, halved) if len(halved) else pd.DataFrame(),
+        "robot_changes": {
+            robot: ranking.relative_changes(robot_runs) for robot, robot_runs in per_robot.items()
+        },
+    }
 
 
 def _family_pages(out: Path, sections: _Sections) -> list[Path]:
@@ -383,12 +420,19 @@ def _family_pages(out: Path, sections: _Sections) -> list[Path]:
     ]
 
 
-def _counted(runs: pd.DataFrame, halved: pd.DataFrame) -> str:
-    """ "N runs", and the runs at another physics step that only the numerical validity reads."""
+def _counted(runs: pd.DataFrame, halved: pd.DataFrame, set_aside: int = 0) -> str:
+    """ "N runs", the runs at another physics step that only the numerical validity reads, and the
+    older runs of a fall stored again that the report leaves out."""
     other = (
         f" (and {len(halved)} at another physics step, in the numerical validity only)" if len(halved) else ""
     )
-    return f"{len(runs)} runs{other}"
+    older = (
+        f"; {set_aside} older run(s) of a fall stored again set aside (the newest run of each "
+        "robot, scenario, point, seed, physics step, strategy and policy is used)"
+        if set_aside
+        else ""
+    )
+    return f"{len(runs)} runs{other}{older}"
 
 
 def _index_answer(
@@ -397,7 +441,7 @@ def _index_answer(
     """The overview's opening: what was run, the forest plot per robot, then per robot the ranking
     of every family."""
     body = [
-        f"<h1>fallbench report</h1><p>{_counted(runs, halved)} from <code>{html.escape(str(results))}</code>; "
+        f"<h1>fallbench report</h1><p>{_counted(runs, halved, sections.set_aside)} from <code>{html.escape(str(results))}</code>; "
         f"{len(sections.failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
         "runs of a family: its sweep points and seeds.</p>",
         "<h2>What hurts the robot least</h2>",
@@ -423,8 +467,8 @@ def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Se
     """The overview after the answer: falls, claims, changes, pre-impact strategies, sensitivity."""
     body = [
         "<h2>Falls, rendered</h2>",
-        "<p>Each family's page shows, per strategy and policy, its typical and its worst fall as filmstrips "
-        f"({len(sections.strip_paths)} rendered).</p>",
+        "<p>Each family's page shows representative falls chosen by their damage as filmstrips "
+        f"({len(sections.strip_paths)} rendered): {html.escape(DAMAGE_NOTE)}</p>",
     ]
     if sections.strip_note:
         body.append(f"<p><em>{html.escape(sections.strip_note)}</em></p>")
@@ -437,10 +481,10 @@ def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Se
             "(the claims table's last columns).</p>",
             pages.table(sections.step_changes),
         ]
-    for robot, robot_runs in per_robot.items():
+    for robot, changes in sections.robot_changes.items():
         body += [
             f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
-            pages.table(ranking.relative_changes(robot_runs)),
+            pages.table(changes),
         ]
     body.append("<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>")
     for title, frame in sections.pre_tables.items():
@@ -480,7 +524,7 @@ def _summary_answer(
     summary = [
         "# fallbench report",
         "",
-        f"{_counted(runs, halved)} from `{results}`; {len(sections.failed)} failed or diverged.",
+        f"{_counted(runs, halved, sections.set_aside)} from `{results}`; {len(sections.failed)} failed or diverged.",
         "",
         "## What hurts the robot least",
         "",
@@ -566,8 +610,11 @@ class Options:
 
     jobs: int = 1
     svg: bool = False
+    filmstrips: str = "family"  # `filmstrips.SCOPES`: three falls per family, or two per strategy and policy
+    paper_figures: str = "chosen"  # PAPER_FIGURES: one point per family, or every eligible point
     drawn: int = 0
     cached: int = 0
+    set_aside: int = 0  # older runs of a fall stored again (grouping.newest_runs), left out
 
 
 def build_report(
@@ -581,7 +628,8 @@ def build_report(
     runs = store.load_metrics(results)
     if runs.empty:
         raise FileNotFoundError(f"{results}: the results store has no runs")
-    runs, halved = split_steps(with_robot(runs))
+    runs, options.set_aside = newest_runs(with_robot(runs), results)  # one run per fall, the newest
+    runs, halved = split_steps(runs)
     out.mkdir(parents=True, exist_ok=True)
     sections = _sections(runs, halved, results, out, options)
     per_robot = ranking.robots(runs)

@@ -10,7 +10,12 @@ lacks (NaN) is left out of its mean.
 For each (pre-impact strategy, gain policy) of a family the report shows two falls: the **typical**
 one, the run whose damage is nearest the median damage of that strategy and policy's runs in the
 family (ties: the smaller run id), and the **worst** one, its run of the highest damage (the same
-run once when they coincide, e.g. one run per strategy and policy)."""
+run once when they coincide, e.g. one run per strategy and policy): `scope="all"`
+(`fallbench report --filmstrips all`).
+
+By default (`scope="family"`) a family shows at most three falls: the typical fall of its best
+(strategy, policy) (the ranking's first), the typical fall of the unprotected reference `none` +
+`stiff`, and the family's **worst** fall over every strategy and policy (ties: the smaller run id)."""
 
 from __future__ import annotations
 
@@ -55,38 +60,57 @@ def damage(family: pd.DataFrame) -> pd.Series:
     return pd.concat(ranks, axis=1).mean(axis=1, skipna=True)
 
 
-def picks(runs: pd.DataFrame) -> list[Pick]:
-    """Per robot and family (the report's grouping), per (strategy, policy) in ranking order: the
-    typical and the worst fall."""
+SCOPES = ("family", "all")  # `fallbench report --filmstrips`: see the module's docstring
+REFERENCE = ("none", "stiff")  # the unprotected fall every change is measured against
+
+
+def picks(runs: pd.DataFrame, scope: str = "all") -> list[Pick]:
+    """Per robot and family (the report's grouping) the representative falls of `scope` (see the
+    module's docstring), in ranking order."""
     chosen: list[Pick] = []
     for robot, robot_runs in robots(runs).items():
         for family in families(robot_runs):
             group = robot_runs[robot_runs.scenario == family]
-            chosen += family_picks(robot, family, group, arm_order(group))
+            chosen += family_picks(robot, family, group, arm_order(group), scope)
     return chosen
 
 
-def family_picks(robot: str, family: str, group: pd.DataFrame, arms: list[tuple[str, str]]) -> list[Pick]:
-    """The typical and the worst fall of each (strategy, policy) in `arms` (best first) of one family."""
+def family_picks(
+    robot: str, family: str, group: pd.DataFrame, arms: list[tuple[str, str]], scope: str = "all"
+) -> list[Pick]:
+    """One family's representative falls (`arms`: its (strategy, policy) best first): with
+    `scope="all"` the typical and the worst fall of each; with "family" the typical fall of the
+    best and of `none` + `stiff`, and the family's worst fall."""
+    if scope not in SCOPES:
+        raise ValueError(f"scope: {scope!r} is not one of {', '.join(SCOPES)}")
     scores = damage(group).dropna()
     if scores.empty:
         return []
-    scored = group.loc[scores.index].assign(damage=scores)
+    scored = group.loc[scores.index].assign(damage=scores).sort_values("run_id")
+
+    def pick(role: str, index) -> Pick:
+        row = scored.loc[index]
+        return Pick(robot, family, row.pre_impact, row.policy, role, row.run_id, float(row.damage), row.point)
+
     chosen = []
     for strategy, policy in arms:
-        arm = scored[(scored.pre_impact == strategy) & (scored.policy == policy)].sort_values("run_id")
-        if arm.empty:
+        arm = scored[(scored.pre_impact == strategy) & (scored.policy == policy)]
+        if arm.empty or (scope == "family" and (strategy, policy) not in (_best(scored, arms), REFERENCE)):
             continue
         typical = (arm.damage - arm.damage.median()).abs().idxmin()  # first of ties: the smaller id
-        worst = arm.damage.idxmax()
-        for role, index in (("typical", typical), ("worst", worst)):
-            if role == "worst" and index == typical:
-                continue
-            row = arm.loc[index]
-            chosen.append(
-                Pick(robot, family, strategy, policy, role, row.run_id, float(row.damage), row.point)
-            )
+        chosen.append(pick("typical", typical))
+        if scope == "all" and arm.damage.idxmax() != typical:
+            chosen.append(pick("worst", arm.damage.idxmax()))
+    worst = scored.damage.idxmax()  # first of ties: the smaller id
+    if scope == "family" and scored.run_id[worst] not in {p.run_id for p in chosen}:
+        chosen.append(pick("worst", worst))
     return chosen
+
+
+def _best(scored: pd.DataFrame, arms: list[tuple[str, str]]) -> tuple[str, str] | None:
+    """The first of `arms` (best first) with a scored run."""
+    present = set(zip(scored.pre_impact, scored.policy))
+    return next((arm for arm in arms if arm in present), None)
 
 
 def draw_filmstrip(results: Path, run_id: str, out: Path) -> list[Path]:
@@ -102,6 +126,8 @@ def figure_name(run_id: str) -> str:
 
 
 def filmstrip_figures(chosen: list[Pick], results: Path, out: Path) -> list[Figure]:
-    """One figure per chosen run (a run chosen twice is drawn once)."""
-    run_ids = list(dict.fromkeys(p.run_id for p in chosen))
+    """One figure per chosen run (a run chosen twice is drawn once), those of one robot and family
+    next to each other: a worker draws neighbours in turn and reuses the renderer of their scene."""
+    ordered = sorted(chosen, key=lambda p: (p.robot, p.family))  # stable: ranking order within
+    run_ids = list(dict.fromkeys(p.run_id for p in ordered))
     return [Figure(figure_name(r), draw_filmstrip, (results, r, out), (r,)) for r in run_ids]

@@ -1,9 +1,12 @@
-"""The report groups every table and figure by robot."""
+"""The report groups every table and figure by robot, and reads one run per fall (the newest)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 
+from fallbench.results import store
 from fallbench.robots import DEFAULT_ROBOT
 
 
@@ -11,3 +14,34 @@ def with_robot(runs: pd.DataFrame) -> pd.DataFrame:
     """Runs with a `robot` column (runs stored before it existed ran on the default robot)."""
     robot = runs["robot"].fillna(DEFAULT_ROBOT) if "robot" in runs else DEFAULT_ROBOT
     return runs.assign(robot=robot)
+
+
+RUN_KEY = ("robot", "scenario", "point", "seed", "physics_dt", "pre_impact", "policy")  # one fall
+
+
+def stored_time(results: Path, run_id: str) -> float:
+    """When a run was stored: the modification time (s since the epoch) of its row file
+    (`runs/<id>/metrics.json`, or `metrics.parquet` of older stores), written once when the run
+    finished (`cp -a` and `rsync -a` keep it); -inf for a row without a run folder (a store of rows
+    only). The row itself holds no time of its own."""
+    folder = store.run_dir(results, run_id)
+    for name in (store.METRICS_JSON, store.METRICS):
+        try:
+            return (folder / name).stat().st_mtime
+        except OSError:
+            continue
+    return float("-inf")
+
+
+def newest_runs(runs: pd.DataFrame, results: Path) -> tuple[pd.DataFrame, int]:
+    """One row per fall (RUN_KEY): the run stored last (`stored_time`; ties: the larger run id),
+    and how many older rows of the same fall were set aside. A store holds a fall twice when
+    `fallbench run sweep` ran again after a code change (the run id includes the code version)."""
+    key = [c for c in RUN_KEY if c in runs]
+    duplicated = runs.duplicated(key, keep=False)
+    if not duplicated.any():
+        return runs, 0
+    times = runs.run_id.where(duplicated).map(lambda rid: stored_time(results, rid) if pd.notna(rid) else 0.0)
+    order = runs.assign(_stored=times).sort_values(["_stored", "run_id"], kind="stable")
+    newest = order.drop_duplicates(key, keep="last").drop(columns="_stored").sort_values("run_id")
+    return newest, len(runs) - len(newest)
