@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import importlib.util
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from fallbench.robots import DEFAULT_ROBOT
 from fallbench.scenario import DEFAULT_PHYSICS_DT, ScenarioError, ScenarioPoint
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 SHIPPED = [
     Path("scenarios/drop.yaml"),
@@ -790,13 +794,11 @@ def direction_authority_command(
     Run first: fallbench run sweep scenarios/direction_authority.yaml --pre-impact none,direction --policies stiff"""
     from fallbench.report.direction_judge import authority_from_store
 
-    try:
-        table = authority_from_store(results)
-    except FileNotFoundError as exc:
-        fail(str(exc))
-    if table.empty:
-        fail(f"{results}: no runs of scenarios/direction_authority.yaml (scenario dir_authority)")
-    typer.echo(table.to_markdown(index=False))
+    table = _store_table(
+        authority_from_store,
+        results,
+        f"{results}: no runs of scenarios/direction_authority.yaml (scenario dir_authority)",
+    )
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(out, index=False)
@@ -813,13 +815,19 @@ def direction_radius_command(
     Run first: fallbench run sweep scenarios/direction_bearing.yaml --pre-impact none --policies stiff"""
     from fallbench.report.direction_judge import radius_from_store
 
+    _store_table(radius_from_store, results, f"{results}: no `none` falls past a single object")
+
+
+def _store_table(make: Callable[[Path], pd.DataFrame], results: Path, empty: str) -> pd.DataFrame:
+    """`make(results)` printed as Markdown; a missing store or an empty table is one error line, exit 2."""
     try:
-        table = radius_from_store(results)
+        table = make(results)
     except FileNotFoundError as exc:
         fail(str(exc))
     if table.empty:
-        fail(f"{results}: no `none` falls past a single object")
+        fail(empty)
     typer.echo(table.to_markdown(index=False))
+    return table
 
 
 def main() -> None:
