@@ -122,16 +122,18 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     axes[0, 0].set_yticks(y, labels, fontsize=9)
     axes[0, 0].set_ylim(-0.7, len(arms) - 0.3)
     fig.suptitle(title, fontsize=10.5)
-    return _save(fig, out, stem, _margins(fig, max(map(len, labels))))
+    renderer = fig.canvas.get_renderer()
+    label_inches = max(t.get_window_extent(renderer).width for t in axes[0, 0].get_yticklabels()) / fig.dpi
+    return _save(fig, out, stem, _margins(fig, label_inches))
 
 
-def _margins(fig, label_chars: int) -> dict[str, float]:
-    """Fixed margins (fractions of the figure) that hold the row labels (about 0.07 in per 9 pt
-    character), the panels' two-line titles and the suptitle above, the tick labels and the
-    direction note below: laying them out with tight_layout took half the figure's time."""
+def _margins(fig, label_inches: float) -> dict[str, float]:
+    """Fixed margins (fractions of the figure) that hold the row labels (their measured width, in),
+    the panels' two-line titles and the suptitle above, the tick labels and the direction note
+    below: laying them out with tight_layout took half the figure's time."""
     width, height = fig.get_size_inches()
     return {
-        "left": min(0.1 + 0.07 * label_chars, 0.6 * width) / width,
+        "left": min(0.2 + label_inches, 0.6 * width) / width,
         "right": 1 - 0.12 / width,
         "bottom": 0.55 / height,
         "top": 1 - 0.85 / height,
