@@ -46,9 +46,10 @@ def fall_posture(
     """Joint name -> target angle (rad) for every joint in `start`. `knee_bend` None keeps the
     legs' starting angles; `elbow_fraction` scales the elbow's angle of highest manipulability."""
     target = dict(start)
-    for hip, knee, ankle in zip(*(robot.leg_pitch_joints[k] for k in ("hip", "knee", "ankle"))):
-        if knee_bend is None:
-            break
+    legs = (
+        zip(*(robot.leg_pitch_joints[k] for k in ("hip", "knee", "ankle"))) if knee_bend is not None else ()
+    )
+    for hip, knee, ankle in legs:
         target[knee] = knee_bend
         target[hip] = target[ankle] = -knee_bend / 2  # thigh and shank symmetric: the foot stays flat
     q = pin.neutral(model)
