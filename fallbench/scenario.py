@@ -314,10 +314,11 @@ def _fmt(value: Any) -> str:
 
 
 def _line_of(doc: Any, loc: tuple[Any, ...]) -> int | None:
-    """1-based line of the deepest node of `loc` that exists in the parsed YAML."""
+    """1-based line of the deepest node of `loc` that exists in the parsed YAML (a key set after
+    parsing, e.g. the environment's `physics_dt`, has none: the line of its parent)."""
     node, line = doc, None
     for part in loc:
-        if isinstance(node, CommentedMap) and part in node:
+        if isinstance(node, CommentedMap) and part in node and part in (node.lc.data or {}):
             line = node.lc.key(part)[0] + 1
             node = node[part]
         elif isinstance(node, CommentedSeq) and isinstance(part, int) and part < len(node):

@@ -14,9 +14,11 @@ from onnx import TensorProto, helper, numpy_helper
 
 import fallbench.environment  # noqa: F401  (registers fallbench/Fall-v0)
 from fallbench.environment import ENV_ID
+from fallbench.environment.fall import FallEnv
 from fallbench.preimpact.learned.observation import observation_size
 from fallbench.registry import load, simulate_named
 from fallbench.results.store import load_metrics
+from fallbench.scenario import ScenarioError
 
 JOINTS = {"g1": 29, "talos": 32}  # actuated joints (MuJoCo actuators)
 
@@ -209,3 +211,16 @@ def test_vectorised_environment(falls: Path) -> None:
     obs, rewards, terminated, truncated, _ = envs.step(envs.action_space.sample())
     assert obs.shape == (2, observation_size(29)) and rewards.shape == (2,)
     envs.close()
+
+
+def test_environment_physics_step_option(falls: Path) -> None:
+    """`physics_dt` replaces every fall's step (a coarser one for training) and is checked as the
+    scenario key is."""
+    env = gymnasium.make(ENV_ID, scenario=str(falls), physics_dt=0.001).unwrapped
+    env.reset(seed=3)
+    assert env.episode.scenario.physics_dt == 0.001
+    before = env.episode.step
+    env.step(np.zeros(29))
+    assert env.episode.step - before == 20  # one 20 ms decision = 20 physics steps of 1 ms
+    with pytest.raises(ScenarioError, match="physics_dt"):
+        FallEnv(falls, physics_dt=0.05)  # longer than the control step

@@ -11,6 +11,8 @@ the environment calls its `sense` and `act` halves itself and acts where the str
 - step(action): holds the action's joint targets for one `control_dt` of the policy (50 Hz by
   default) and returns the reward of the physics samples simulated meanwhile.
 - reward: minus a weighted sum of fallbench's damage measures over the step (`DamageWeights`).
+- `physics_dt` (s, optional) replaces every fall's physics step (a coarser step trains faster; the
+  benchmark judges at the scenario's own step).
 - terminated at the episode's end (its duration simulated, or the run diverged); never truncated.
 """
 
@@ -139,6 +141,7 @@ class FallEnv(gymnasium.Env):
         scenario: str | Path,
         robot: str | None = None,
         reward_weights: dict[str, float] | DamageWeights | None = None,
+        physics_dt: float | None = None,
     ) -> None:
         self.path, self.robot = Path(scenario), robot
         points = load([self.path], robot)  # checks the whole file: ScenarioError on bad input
@@ -146,6 +149,10 @@ class FallEnv(gymnasium.Env):
         if len(robots) != 1:
             raise ValueError(f"{self.path}: falls of several robots ({', '.join(robots)}); pass robot=")
         self.documents = read_documents(self.path)
+        if physics_dt is not None:  # every fall's physics step (s), e.g. a coarser one for training
+            for document in self.documents:
+                document["physics_dt"] = physics_dt
+            points = points_with_seed(self.path, self.documents, 0, robot)  # checks the new step
         self.weights = (
             reward_weights
             if isinstance(reward_weights, DamageWeights)
