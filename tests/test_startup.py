@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import mujoco
@@ -43,29 +44,40 @@ def _not_compiled(scenario: Scenario) -> None:
 def test_cached_model_simulates_bit_identically(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     cache = tmp_path / "fallbench"
-    scenario = Scenario(name="cache", duration=1.0, friction=0.9)
+    scenario = Scenario(name="cache", duration=1.0, friction=0.9, physics_dt=0.001)
+    other = scenario.model_copy(update={"friction": 0.8, "physics_dt": 0.00025})
+    direct = {s.friction: _serialized(world.build_spec(s).compile()) for s in (scenario, other)}
     compiled = world.compile_model(scenario)
-    files = list(cache.glob("world-*.mjb"))
-    assert len(files) == 1
-    whole = files[0].read_bytes()
-    assert _fingerprint(whole) == _serialized(compiled)  # the file holds the compiled model, all of it
+    assert _serialized(compiled) == direct[0.9]  # the model a compile of the scenario gives, all of it
+    [file] = list(cache.glob("world-*.mjb"))
+    whole = file.read_bytes()
     with monkeypatch.context() as cached:
         cached.setattr(world, "build_spec", _not_compiled)
+        cached.setattr(world, "_TEMPLATES", {})  # a new process: read from the disk
         loaded = world.compile_model(scenario)
-    assert _serialized(loaded) == _fingerprint(whole)
+        # friction and step are set at run time: another friction and step share the file
+        assert _serialized(world.compile_model(other)) == direct[0.8]
+    assert _serialized(loaded) == direct[0.9]
     np.testing.assert_array_equal(_steps(loaded), _steps(compiled))
-    other = world.compile_model(scenario.model_copy(update={"friction": 0.8}))  # another world, another file
-    np.testing.assert_array_equal(other.geom_friction[:, 0], 0.8)  # every geom: not the cached model
-    np.testing.assert_array_equal(compiled.geom_friction[:, 0], 0.9)
-    [other_file] = set(cache.glob("world-*.mjb")) - set(files)
-    assert _fingerprint(other_file.read_bytes()) == _serialized(other)
-    files[0].write_bytes(whole[:1000])  # truncated
+    assert list(cache.glob("world-*.mjb")) == [file]
+    file.write_bytes(whole[:1000])  # truncated
+    monkeypatch.setattr(world, "_TEMPLATES", {})
     np.testing.assert_array_equal(_steps(world.compile_model(scenario)), _steps(compiled))
-    assert _fingerprint(files[0].read_bytes()) == _fingerprint(whole)  # rewritten whole
-    with monkeypatch.context() as cached:
+    assert _fingerprint(file.read_bytes()) == _fingerprint(whole)  # rewritten whole
+    assert sorted(cache.iterdir()) == [file]  # no temporary file left behind
+
+
+def test_model_cache_keeps_the_newest_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setattr(world, "MODEL_CACHE_FILES", 2)
+    for index, softness in enumerate((0.02, 0.03, 0.04)):  # three worlds, three files
+        world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": softness}))
+        time.sleep(0.01)  # distinct modification times
+        monkeypatch.setattr(world, "_TEMPLATES", {})
+        assert len(list((tmp_path / "fallbench").glob("world-*.mjb"))) == min(index + 1, 2)
+    with monkeypatch.context() as cached:  # the newest two stayed
         cached.setattr(world, "build_spec", _not_compiled)
-        assert _serialized(world.compile_model(scenario)) == _fingerprint(whole)
-    assert sorted(cache.iterdir()) == sorted([files[0], other_file])  # no temporary file left behind
+        world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": 0.04}))
 
 
 LOADS_NUMBA = """

@@ -16,6 +16,7 @@ parameters (stated defaults), applied to every robot, floor and obstacle geom al
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import math
 import os
@@ -29,7 +30,7 @@ import numpy as np
 
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.robots.description import RobotDescription
-from fallbench.scenario import Box, Contact, Cylinder, Scenario
+from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scenario
 
 IMPEDANCE_SHAPE = (0.5, 2.0)  # solimp midpoint and power: MuJoCo's defaults
 ROBOT_COLLISION_BITS = (1, 1)  # contype, conaffinity: robot geoms touch each other and the scene
@@ -281,6 +282,21 @@ def _builder_source() -> bytes:
     return b"".join(path.read_bytes() for path in files)
 
 
+MODEL_CACHE_FILES = 32  # compiled models kept on disk (G1's is 33 MB): the least recently written go
+# Scenario keys MuJoCo reads at run time, set on the loaded model rather than compiled in, so that
+# randomised friction (a Gymnasium environment draws one per episode) does not make a model per draw
+TEMPLATES_KEPT = 4  # compiled models kept in memory per process, by cache file
+_TEMPLATES: dict[Path, mujoco.MjModel] = {}
+RUNTIME_KEYS = {"friction": Scenario.model_fields["friction"].default, "physics_dt": DEFAULT_PHYSICS_DT}
+
+
+def _set_runtime(model: mujoco.MjModel, scenario: Scenario) -> None:
+    """The scenario's friction on every geom (the robot's and the scene's, as `_soften` sets it) and
+    its step: the model a compile of `scenario` itself gives, byte for byte (tests/test_startup.py)."""
+    model.geom_friction[:, 0] = scenario.friction
+    model.opt.timestep = scenario.physics_dt
+
+
 def _model_cache_file(scenario: Scenario) -> Path:
     robot = get_robot(scenario.robot)
     digest = hashlib.sha256(
@@ -294,28 +310,47 @@ def _model_cache_file(scenario: Scenario) -> Path:
     return root / f"world-{robot.name}-{digest.hexdigest()[:16]}.mjb"
 
 
-def compile_model(scenario: Scenario) -> mujoco.MjModel:
-    """The scenario's compiled model, from the disk cache when an identical one was compiled
-    before (MuJoCo's binary format: loading takes 10-40 ms where compiling takes 70 ms for TALOS,
-    450 ms for G1), so every worker and every command does not compile the robot again. The key
-    holds everything that builds the model: the world key, MuJoCo's and the description's
-    versions, the URDF and the source of this module and of the robot layer."""
-    path = _model_cache_file(scenario)
-    if path.exists():
-        try:
-            return mujoco.MjModel.from_binary_path(str(path))
-        except ValueError:  # unreadable (e.g. truncated by a full disk): compile and replace it
-            pass
-    model = build_spec(scenario).compile()
+def _save_to_cache(model: mujoco.MjModel, path: Path) -> None:
+    """Write atomically, then drop the oldest files past `MODEL_CACHE_FILES`; a read-only or full
+    cache only costs the next process a compile."""
     tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkstemp(dir=path.parent, suffix=".mjb.tmp")[1])
         mujoco.mj_saveModel(model, str(tmp), None)
         os.replace(tmp, path)
-    except OSError:  # a read-only or full cache only costs the next process a compile
+        files = sorted(path.parent.glob("world-*.mjb"), key=lambda f: f.stat().st_mtime_ns)
+        for old in files[: max(len(files) - MODEL_CACHE_FILES, 0)]:
+            old.unlink(missing_ok=True)
+    except OSError:  # also a file another worker removed meanwhile
         if tmp is not None:
             tmp.unlink(missing_ok=True)
+
+
+def compile_model(scenario: Scenario) -> mujoco.MjModel:
+    """The scenario's compiled model, from the disk cache when an identical one was compiled
+    before (MuJoCo's binary format: loading takes 10-40 ms where compiling takes 70 ms for TALOS,
+    450 ms for G1), so every worker and every command does not compile the robot again. The key
+    holds everything that builds the model but the run-time keys (`RUNTIME_KEYS`, set after
+    loading): the world key, MuJoCo's and the description's versions, the URDF and the source of
+    this module and of the robot layer."""
+    template = scenario.model_copy(update=RUNTIME_KEYS)
+    path = _model_cache_file(template)
+    if path not in _TEMPLATES:
+        model = None
+        if path.exists():
+            try:
+                model = mujoco.MjModel.from_binary_path(str(path))
+            except ValueError:  # unreadable (e.g. truncated by a full disk): compile and replace it
+                pass
+        if model is None:
+            model = build_spec(template).compile()
+            _save_to_cache(model, path)
+        if len(_TEMPLATES) >= TEMPLATES_KEPT:
+            _TEMPLATES.pop(next(iter(_TEMPLATES)))
+        _TEMPLATES[path] = model
+    model = copy.copy(_TEMPLATES[path])  # half the time of reading G1's file again
+    _set_runtime(model, scenario)
     return model
 
 
