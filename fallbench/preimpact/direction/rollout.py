@@ -1,0 +1,89 @@
+"""The short-rollout predictor (issue 23 item 3, 004 Sec. VI's "better model" for Take a Step;
+`policy_params.direction.predictor: rollout`): each candidate is simulated for a short time in a
+copy of the robot's present state with the strategy's own swing control and servo (the real swing
+timing: the foot lifts, travels, sets down), then the rest of the fall is predicted from the
+rolled-out state.
+
+Only what the robot itself would know is used: its own state and model, the ground, and the
+objects as the pendulum predictor knows them (circles, for the safe regions and the step targets);
+the objects are left out of the rollout (no contact with them is simulated) and so is the push
+(an unknown external force). A step's rollout ends when its foot is down (the strategy's own
+landing test) or after `rollout_horizon` s; Lift a Leg and No Action run `rollout_horizon` s. Then
+(`rollout_remainder`): `pendulum`, 004's inverted pendulum from the rolled-out CoM state about the
+rolled-out support (both soles where they are once a step has landed; a step still in the air is
+taken to land at its target); or `velocity`, the direction of the CoM's horizontal velocity then.
+A rollout whose CoM is already down gives the direction to where it is.
+
+Real time it is not on this machine: one rollout simulates up to `rollout_horizon` s of the whole
+robot (docs/methods/direction.md has the measured planning cost per fall).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from fallbench.dynamics.state import RobotState
+from fallbench.preimpact.direction.candidates import Candidate, FallState, step_directions
+from fallbench.preimpact.direction.oracle import run_candidate, step_subset
+from fallbench.preimpact.direction.support import sole_corners
+from fallbench.sim.events import support_polygon
+
+REMAINDERS = ("pendulum", "velocity")
+ROLLED = ("steps", "all")
+
+
+def rollout_subset(candidates: list[Candidate], config: Any) -> list[Candidate]:
+    """The candidates the rollout predicts: No Action, both Lift a Leg, and the steps nearest the
+    grid of `rollout_radius_step` m (from `step_radius_min`) x every `rollout_heading_step` deg."""
+    radii = np.arange(config.step_radius_min, config.step_radius_max + 1e-9, config.rollout_radius_step)
+    return step_subset(candidates, radii, config.rollout_heading_step)
+
+
+def _support(strategy: Any, copy: mujoco.MjData, candidate: Candidate, landed: bool) -> np.ndarray:
+    """The support polygon after the rollout, from the soles where they are: both for No Action and
+    a landed step, the stance sole for Lift a Leg, and the stance sole with the swing sole moved
+    onto its target for a step still in the air."""
+    model, feet = strategy.world.model, strategy.feet
+    soles = {side: sole_corners(model, copy, body) for side, body in feet.items()}
+    if candidate.kind == "no_action" or (candidate.kind == "take_step" and landed):
+        return support_polygon(np.vstack(list(soles.values())))
+    swing = candidate.swing
+    stance = next(side for side in soles if side != swing)
+    if candidate.kind == "lift_leg":
+        return soles[stance]
+    assert candidate.target is not None
+    moved = soles[swing] + (candidate.target - soles[swing].mean(axis=0))
+    return support_polygon(np.vstack([soles[stance], moved]))
+
+
+def predict_by_rollout(
+    strategy: Any, data: mujoco.MjData, t: float, candidate: Candidate
+) -> tuple[float, bool]:
+    """(fall direction, rad from the strategy's origin; whether the fall is predicted to stop on the
+    rolled-out support) of one candidate, rolled out from `data` at `t` (s); `data`, the strategy
+    and the model are not changed."""
+    config = strategy.config
+    floor = config.touchdown_fraction * strategy.com_height
+    landed: list[bool] = [False]
+
+    def ended(copy: mujoco.MjData, state: RobotState) -> bool:
+        landed[0] = strategy.step_done is not None  # the rollout's own, set by the swing control
+        return bool(state.com[2] <= floor) or landed[0]
+
+    copy, state, _ = run_candidate(
+        strategy, data, t, candidate, config.rollout_horizon, ended, push=False, objects=False
+    )
+    com, velocity = state.com, state.com_velocity
+    if com[2] <= floor:
+        delta = com[:2] - strategy.origin
+        return math.atan2(delta[1], delta[0]) % (2 * math.pi), False
+    polygon = _support(strategy, copy, candidate, landed[0])
+    fall = FallState(com, velocity, 0.0, floor)
+    directions, _, inside = step_directions([polygon], com[None], velocity[None], strategy.origin, fall)
+    if config.rollout_remainder == "velocity":
+        return math.atan2(velocity[1], velocity[0]) % (2 * math.pi), bool(inside[0])
+    return float(directions[0]), bool(inside[0])
