@@ -7,12 +7,14 @@ rolled-out state.
 Only what the robot itself would know is used: its own state and model, the ground, and the
 objects as the pendulum predictor knows them (circles, for the safe regions and the step targets);
 the objects are left out of the rollout (no contact with them is simulated) and so is the push
-(an unknown external force). A step's rollout ends when its foot is down (the strategy's own
-landing test) or after `rollout_horizon` s; Lift a Leg and No Action run `rollout_horizon` s. Then
-(`rollout_remainder`): `pendulum`, 004's inverted pendulum from the rolled-out CoM state about the
-rolled-out support (both soles where they are once a step has landed; a step still in the air is
-taken to land at its target); or `velocity`, the direction of the CoM's horizontal velocity then.
-A rollout whose CoM is already down gives the direction to where it is.
+(an unknown external force). A step's rollout ends `rollout_after_landing` s after its foot is down
+(the strategy's own landing test; at the landing itself the body has not yet settled onto the new
+support), or after `rollout_horizon` s; Lift a Leg (and No Action, with `rollout_candidates: all`)
+runs `rollout_horizon` s. Then (`rollout_remainder`): `pendulum`, 004's inverted pendulum from the
+rolled-out CoM state about the rolled-out support (both soles where they are once a step has
+landed; a step still in the air is taken to land at its target); or `velocity`, the direction of
+the CoM's horizontal velocity then. A rollout whose CoM is already down gives the direction to
+where it is.
 
 Real time it is not on this machine: one rollout simulates up to `rollout_horizon` s of the whole
 robot (docs/methods/direction.md has the measured planning cost per fall).
@@ -33,7 +35,14 @@ from fallbench.preimpact.direction.support import sole_corners
 from fallbench.sim.events import support_polygon
 
 REMAINDERS = ("pendulum", "velocity")
-ROLLED = ("steps", "all")
+ROLLED = ("swing", "steps", "all")
+
+
+def rolled_out(candidate: Candidate, which: str) -> bool:
+    """Whether `rollout_candidates` (`which`) has this candidate rolled out (else the pendulum predicts it)."""
+    return (
+        which == "all" or candidate.kind == "take_step" or (which == "swing" and candidate.kind == "lift_leg")
+    )
 
 
 def rollout_subset(candidates: list[Candidate], config: Any) -> list[Candidate]:
@@ -68,11 +77,13 @@ def predict_by_rollout(
     and the model are not changed."""
     config = strategy.config
     floor = config.touchdown_fraction * strategy.com_height
-    landed: list[bool] = [False]
+    landed: list[float] = []  # s, when the rollout's step landed (the strategy's own landing test)
 
     def ended(copy: mujoco.MjData, state: RobotState) -> bool:
-        landed[0] = strategy.step_done is not None  # the rollout's own, set by the swing control
-        return bool(state.com[2] <= floor) or landed[0]
+        if strategy.step_done is not None and not landed:
+            landed.append(float(copy.time))
+        settled = bool(landed) and copy.time >= landed[0] + config.rollout_after_landing - 1e-9
+        return bool(state.com[2] <= floor) or settled
 
     copy, state, _ = run_candidate(
         strategy, data, t, candidate, config.rollout_horizon, ended, push=False, objects=False
@@ -81,7 +92,7 @@ def predict_by_rollout(
     if com[2] <= floor:
         delta = com[:2] - strategy.origin
         return math.atan2(delta[1], delta[0]) % (2 * math.pi), False
-    polygon = _support(strategy, copy, candidate, landed[0])
+    polygon = _support(strategy, copy, candidate, bool(landed))
     fall = FallState(com, velocity, 0.0, floor)
     directions, _, inside = step_directions([polygon], com[None], velocity[None], strategy.origin, fall)
     if config.rollout_remainder == "velocity":

@@ -33,7 +33,13 @@ from fallbench.preimpact.direction.inertia import (
     to_vector,
 )
 from fallbench.preimpact.direction.oracle import oracle_subset, simulate
-from fallbench.preimpact.direction.rollout import REMAINDERS, ROLLED, predict_by_rollout, rollout_subset
+from fallbench.preimpact.direction.rollout import (
+    REMAINDERS,
+    ROLLED,
+    predict_by_rollout,
+    rolled_out,
+    rollout_subset,
+)
 from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import (
     CAPTURE,
@@ -180,7 +186,7 @@ class DirectionStrategy(Strategy):
         elif config.predictor == "rollout":  # each (step) candidate simulated briefly: not real-time
             candidates = rollout_subset(candidates, config)
             for candidate in candidates:
-                if candidate.kind == "take_step" or config.rollout_candidates == "all":
+                if rolled_out(candidate, config.rollout_candidates):
                     candidate.direction, candidate.capturing = predict_by_rollout(self, data, t, candidate)
         self.plan = choose(
             candidates,
