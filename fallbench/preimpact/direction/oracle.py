@@ -132,9 +132,8 @@ def run_candidate(
         for name, value in saved.items():
             setattr(strategy, name, value)
         kept.restore()
-        RobotState.measure(
-            strategy.P, *strategy.P.state(data.qpos, data.qvel)
-        )  # Pinocchio's data: the present state again
+        # Pinocchio's data: the kinematics of the present state again
+        RobotState.measure(strategy.P, *strategy.P.state(data.qpos, data.qvel))
 
 
 def simulate(strategy: Any, data: mujoco.MjData, t: float, candidate: Candidate) -> tuple[float, bool]:
