@@ -42,6 +42,7 @@ def _snapshot(strategy: DirectionStrategy, data: mujoco.MjData) -> dict[str, Any
         f"model.{f}": np.copy(getattr(model, f))
         for f in ("actuator_gainprm", "actuator_biasprm", "geom_contype", "geom_conaffinity")
     }
+    kept["model.opt.timestep"] = np.array(model.opt.timestep)
     return kept
 
 

@@ -60,13 +60,14 @@ def oracle_subset(candidates: list[Candidate]) -> list[Candidate]:
 
 class _ModelState:
     """The model parameters the rollouts overwrite in the shared model (servo gains; the contact
-    flags of the objects when they are left out), restored afterwards."""
+    flags of the objects when they are left out; the physics step), restored afterwards."""
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self.model = model
         self.gain = model.actuator_gainprm.copy()
         self.bias = model.actuator_biasprm.copy()
         self.contype = model.geom_contype.copy()
+        self.timestep = float(model.opt.timestep)
         self.conaffinity = model.geom_conaffinity.copy()
 
     def without_objects(self) -> None:
@@ -80,6 +81,7 @@ class _ModelState:
         self.model.actuator_biasprm[:] = self.bias
         self.model.geom_contype[:] = self.contype
         self.model.geom_conaffinity[:] = self.conaffinity
+        self.model.opt.timestep = self.timestep
 
 
 Stop = Callable[[mujoco.MjData, RobotState], bool]  # (the copy, its state) -> end the rollout now
@@ -95,11 +97,13 @@ def run_candidate(
     *,
     push: bool = True,
     objects: bool = True,
+    physics_dt: float = 0.0,
 ) -> tuple[mujoco.MjData, RobotState, float]:
     """(the copy, its state, its time s) after simulating `candidate` alone (no inertia shaping) with
     the strategy's own swing control and servo, from the present state `data` at time `t` (s) until
     `stop` says so or `limit` s have passed. `push`: the scenario's push as scheduled (else none);
-    `objects`: the objects collide (else they are not there). `data`, the strategy's state, the
+    `objects`: the objects collide (else they are not there); `physics_dt` (s): the rollout's
+    physics step, if not 0 (else the scenario's). `data`, the strategy's state, the
     model and the kinematics in the strategy's Pinocchio data are left as they were. `strategy` is the running DirectionStrategy (not imported here: it
     imports this module)."""
     world, scenario = strategy.world, strategy.scenario
@@ -114,7 +118,10 @@ def run_candidate(
     strategy.step_done, strategy.swing_path, strategy.tracked = None, None, None
     strategy.q_ref, strategy.qd_ref = saved["q_ref"].copy(), saved["qd_ref"].copy()
     scheduled = scenario.push if push else None
-    steps = scenario.physics_steps_per_control
+    steps, dt = scenario.physics_steps_per_control, scenario.physics_dt
+    if physics_dt > 0.0:
+        model.opt.timestep = dt = physics_dt
+        steps = max(round(scenario.control_dt / dt), 1)
     now, end = t, t + limit
     try:
         state = RobotState.measure(strategy.P, *strategy.P.state(copy.qpos, copy.qvel))
@@ -125,7 +132,7 @@ def run_candidate(
                 if scheduled is None or not (scheduled.start <= now < scheduled.start + scheduled.duration):
                     copy.xfrc_applied[:] = 0.0
                 mujoco.mj_step(model, copy)
-                now += scenario.physics_dt
+                now += dt
             state = RobotState.measure(strategy.P, *strategy.P.state(copy.qpos, copy.qvel))
         return copy, state, now
     finally:

@@ -86,7 +86,15 @@ def predict_by_rollout(
         return bool(state.com[2] <= floor) or settled
 
     copy, state, _ = run_candidate(
-        strategy, data, t, candidate, config.rollout_horizon, ended, push=False, objects=False
+        strategy,
+        data,
+        t,
+        candidate,
+        config.rollout_horizon,
+        ended,
+        push=False,
+        objects=False,
+        physics_dt=config.rollout_physics_dt,
     )
     com, velocity = state.com, state.com_velocity
     if com[2] <= floor:
