@@ -70,7 +70,7 @@ def forced_step() -> dict[str, Any]:
         plan(self, t, data, *args)
         assert self.plan is not None
         before = _snapshot(self, data)
-        found["rollout"], _ = predict_by_rollout(self, data, t, self.plan.chosen)
+        found["rollout"] = predict_by_rollout(self, data, t, self.plan.chosen).direction
         found["changed"] = _unchanged(before, _snapshot(self, data))
 
     with pytest.MonkeyPatch.context() as patch:

@@ -23,13 +23,14 @@ robot (docs/methods/direction.md has the measured planning cost per fall).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
 import numpy as np
 
 from fallbench.dynamics.state import RobotState
-from fallbench.preimpact.direction.candidates import Candidate, FallState, step_directions
+from fallbench.preimpact.direction.candidates import Candidate, FallState, capture_margin, step_directions
 from fallbench.preimpact.direction.oracle import run_candidate, step_subset
 from fallbench.preimpact.direction.support import sole_corners
 from fallbench.sim.events import support_polygon
@@ -69,12 +70,18 @@ def _support(strategy: Any, copy: mujoco.MjData, candidate: Candidate, landed: b
     return support_polygon(np.vstack([soles[stance], moved]))
 
 
-def predict_by_rollout(
-    strategy: Any, data: mujoco.MjData, t: float, candidate: Candidate
-) -> tuple[float, bool]:
-    """(fall direction, rad from the strategy's origin; whether the fall is predicted to stop on the
-    rolled-out support) of one candidate, rolled out from `data` at `t` (s); `data`, the strategy
-    and the model are not changed."""
+@dataclass(frozen=True)
+class RolledOut:
+    """A candidate's prediction from its rollout."""
+
+    direction: float  # rad from the strategy's origin
+    capturing: bool  # the fall is predicted to stop on the rolled-out support
+    capture_margin: float  # m: the capture point inside the rolled-out support (negative: outside)
+
+
+def predict_by_rollout(strategy: Any, data: mujoco.MjData, t: float, candidate: Candidate) -> RolledOut:
+    """One candidate rolled out from `data` at `t` (s), and the rest of its fall predicted; `data`,
+    the strategy and the model are not changed."""
     config = strategy.config
     floor = config.touchdown_fraction * strategy.com_height
     landed: list[float] = []  # s, when the rollout's step landed (the strategy's own landing test)
@@ -99,10 +106,11 @@ def predict_by_rollout(
     com, velocity = state.com, state.com_velocity
     if com[2] <= floor:
         delta = com[:2] - strategy.origin
-        return math.atan2(delta[1], delta[0]) % (2 * math.pi), False
+        return RolledOut(math.atan2(delta[1], delta[0]) % (2 * math.pi), False, -math.inf)
     polygon = _support(strategy, copy, candidate, bool(landed))
     fall = FallState(com, velocity, 0.0, floor)
     directions, _, inside = step_directions([polygon], com[None], velocity[None], strategy.origin, fall)
+    margin = capture_margin(polygon, com, velocity)
     if config.rollout_remainder == "velocity":
-        return math.atan2(velocity[1], velocity[0]) % (2 * math.pi), bool(inside[0])
-    return float(directions[0]), bool(inside[0])
+        return RolledOut(math.atan2(velocity[1], velocity[0]) % (2 * math.pi), bool(inside[0]), margin)
+    return RolledOut(float(directions[0]), bool(inside[0]), margin)

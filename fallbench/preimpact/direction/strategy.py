@@ -187,7 +187,9 @@ class DirectionStrategy(Strategy):
             candidates = rollout_subset(candidates, config)
             for candidate in candidates:
                 if rolled_out(candidate, config.rollout_candidates):
-                    candidate.direction, candidate.capturing = predict_by_rollout(self, data, t, candidate)
+                    rolled = predict_by_rollout(self, data, t, candidate)
+                    candidate.direction, candidate.capturing = rolled.direction, rolled.capturing
+                    candidate.capture_margin = rolled.capture_margin  # `capture: prefer` ranks steps by it
         self.plan = choose(
             candidates,
             self.regions,
