@@ -183,7 +183,7 @@ class DirectionStrategy(Strategy):
             candidates = oracle_subset(candidates)
             for candidate in candidates:
                 candidate.direction, candidate.capturing = simulate(self, data, t, candidate)
-        elif config.predictor == "rollout":  # each (step) candidate simulated briefly: not real-time
+        elif config.predictor == "rollout":  # the steps (and lifts) simulated briefly: not real time
             candidates = rollout_subset(candidates, config)
             for candidate in candidates:
                 if rolled_out(candidate, config.rollout_candidates):
