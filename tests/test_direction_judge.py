@@ -13,7 +13,13 @@ import pytest
 from fallbench.preimpact.direction.candidates import Candidate
 from fallbench.preimpact.direction.geometry import SafeRegion, needed_deflection
 from fallbench.preimpact.direction.selection import Forced, choose
-from fallbench.report.direction_judge import authority_runs, authority_table, judge_hits, judged_table
+from fallbench.report.direction_judge import (
+    authority_runs,
+    authority_table,
+    judge_hits,
+    judged_table,
+    within_authority_claim,
+)
 
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
@@ -106,6 +112,21 @@ def test_the_first_claim_is_judged_over_hits_whose_need_is_within_authority() ->
         row["avoided, all hits"] == "1/3 (33 %)"
         and row["need <= 15 / 15-30 / 30-45 / > 45 deg"] == "1 / 1 / 0 / 1"
     )
+
+
+def test_claims_of_predictors_that_simulate_say_they_are_not_real_time() -> None:
+    hits = pd.DataFrame(
+        {
+            "predictor": ["pendulum", "rollout", "oracle"],
+            "within_authority": True,
+            "direction_hit": [True, False, False],
+        }
+    )
+    claims = {row["claim (004)"]: row["N/M"] for row in within_authority_claim(hits)}
+    labelled = [text for text in claims if "not real time" in text]  # not the pendulum's
+    assert len(labelled) == 2
+    assert any("rollout prediction" in text for text in labelled)
+    assert any("oracle prediction" in text for text in labelled)
 
 
 def test_capture_prefer_takes_the_step_with_the_widest_capture_margin() -> None:

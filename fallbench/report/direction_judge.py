@@ -211,7 +211,7 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
 
 def within_authority_claim(hits: pd.DataFrame) -> list[dict[str, str]]:
     """004's first claim restricted to the hits whose need is within the measured authority, per
-    predictor (004's pendulum, or the oracle bound)."""
+    predictor (004's pendulum, the short rollouts, or the oracle bound)."""
     if hits.empty:
         return []
     rows = []
@@ -220,7 +220,7 @@ def within_authority_claim(hits: pd.DataFrame) -> list[dict[str, str]]:
         within = group[group.within_authority.astype(bool)]
         avoided = int((~within.direction_hit).sum())
         verdict = "n/a" if within.empty else ("holds" if avoided >= 0.5 * len(within) else "does not hold")
-        oracle = " (oracle prediction: not real time)" if predictor == "oracle" else ""
+        oracle = f" ({predictor} prediction: not real time)" if predictor in ("oracle", "rollout") else ""
         rows.append(
             {
                 "claim (004)": "direction avoids the objects that none hits, over the hits whose needed deflection "

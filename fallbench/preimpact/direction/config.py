@@ -46,7 +46,16 @@ class DirectionConfig:
         True  # 004 Secs. IV, VI: re-predict while the strategy runs; whole-body inertia shaping once unsafe
     )
     tracking_period: float = 0.02  # s between tracking predictions
-    predictor: str = "pendulum"  # pendulum (004's) | oracle: each candidate simulated in a copy of the scene (oracle.py; not real time)
+    predictor: str = "pendulum"  # pendulum (004's) | rollout: a short simulation of each candidate without the objects, then the pendulum (rollout.py; not real time) | oracle: each candidate simulated in a copy of the scene (oracle.py; not real time)
+    rollout_horizon: float = 0.7  # s: the longest rollout
+    rollout_after_landing: float = (
+        0.2  # s: a step's rollout goes on this long after its foot is down (then ends)
+    )
+    rollout_remainder: str = "pendulum"  # pendulum: 004's pendulum from the rolled-out state | velocity: the CoM's horizontal velocity direction then
+    rollout_candidates: str = "swing"  # swing: Take a Step and Lift a Leg rolled out, No Action by the pendulum | steps: Take a Step only | all
+    rollout_physics_dt: float = 0.0  # s: the rollouts' physics step; 0: the scenario's (1 ms moved rolled-out directions by 0.06 deg median on development falls, at 0.6 x the cost)
+    rollout_radius_step: float = 0.15  # m between rolled-out step lengths (from step_radius_min)
+    rollout_heading_step: float = 30.0  # deg between rolled-out step headings
     # Forced candidates, for measuring steering authority (a forced `mode` only; null: chosen by score)
     swing_side: str = ""  # left | right: the lifted or stepping foot
     step_length: float | None = None  # m: the step nearest this length and `step_bearing` ...

@@ -10,11 +10,15 @@ touchdown (the CoM down to `touchdown_fraction` of its standing height), at the 
 an object (then the object sets the direction, as in outcome.py), or `ROLLOUT_LIMIT` s. The
 stepping grid is coarser than the pendulum's (`ORACLE_RADII` x every `ORACLE_HEADING` deg) to keep
 the rollouts to a few dozen per fall.
+
+`run_candidate` is the machinery the short-rollout predictor (rollout.py) shares: it simulates a
+candidate in a copy of the state and puts the strategy and the model back as they were.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import mujoco
@@ -32,14 +36,14 @@ ORACLE_HEADING = 45.0  # deg between simulated step headings
 SAVED = ("plan", "q_ref", "qd_ref", "step_done", "step_error", "swing_path", "tracked", "tracking_switch")
 
 
-def oracle_subset(candidates: list[Candidate]) -> list[Candidate]:
-    """The candidates the oracle simulates: No Action, both Lift a Leg, and the steps nearest the
-    coarse grid (one per grid node and swing foot)."""
+def step_subset(candidates: list[Candidate], radii: Iterable[float], heading_deg: float) -> list[Candidate]:
+    """No Action, both Lift a Leg, and the steps nearest a coarse grid (`radii` m x every
+    `heading_deg` deg; one per grid node and swing foot, within 0.05 m of it)."""
     kept = [c for c in candidates if c.kind != "take_step"]
     for swing in ("left", "right"):
         steps = [c for c in candidates if c.kind == "take_step" and c.swing == swing and c.step is not None]
-        for radius in ORACLE_RADII:
-            for heading in np.radians(np.arange(0.0, 360.0, ORACLE_HEADING)):
+        for radius in radii:
+            for heading in np.radians(np.arange(0.0, 360.0, heading_deg)):
                 wanted = radius * np.array([math.cos(heading), math.sin(heading)])
                 near = [c for c in steps if float(np.linalg.norm(c.step - wanted)) <= 0.05]
                 if near:
@@ -49,57 +53,111 @@ def oracle_subset(candidates: list[Candidate]) -> list[Candidate]:
     return kept
 
 
-class _ServoState:
-    """The servo parameters the rollouts overwrite in the shared model, restored afterwards."""
+def oracle_subset(candidates: list[Candidate]) -> list[Candidate]:
+    """The candidates the oracle simulates: `step_subset` at `ORACLE_RADII` x every `ORACLE_HEADING` deg."""
+    return step_subset(candidates, ORACLE_RADII, ORACLE_HEADING)
+
+
+class _ModelState:
+    """The model parameters the rollouts overwrite in the shared model (servo gains; the contact
+    flags of the objects when they are left out; the physics step), restored afterwards."""
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self.model = model
         self.gain = model.actuator_gainprm.copy()
         self.bias = model.actuator_biasprm.copy()
+        self.contype = model.geom_contype.copy()
+        self.timestep = float(model.opt.timestep)
+        self.conaffinity = model.geom_conaffinity.copy()
+
+    def without_objects(self) -> None:
+        """The objects stop colliding with anything (a robot that knows them only as circles)."""
+        objects = [g for g in range(self.model.ngeom) if self.model.geom(g).name.startswith("obstacle_")]
+        self.model.geom_contype[objects] = 0
+        self.model.geom_conaffinity[objects] = 0
 
     def restore(self) -> None:
         self.model.actuator_gainprm[:] = self.gain
         self.model.actuator_biasprm[:] = self.bias
+        self.model.geom_contype[:] = self.contype
+        self.model.geom_conaffinity[:] = self.conaffinity
+        self.model.opt.timestep = self.timestep
+
+
+Stop = Callable[[mujoco.MjData, RobotState], bool]  # (the copy, its state) -> end the rollout now
+
+
+def run_candidate(
+    strategy: Any,
+    data: mujoco.MjData,
+    t: float,
+    candidate: Candidate,
+    limit: float,
+    stop: Stop,
+    *,
+    push: bool = True,
+    objects: bool = True,
+    physics_dt: float = 0.0,
+) -> tuple[mujoco.MjData, RobotState, float]:
+    """(the copy, its state, its time s) after simulating `candidate` alone (no inertia shaping) with
+    the strategy's own swing control and servo, from the present state `data` at time `t` (s) until
+    `stop` says so or `limit` s have passed. `push`: the scenario's push as scheduled (else none);
+    `objects`: the objects collide (else they are not there); `physics_dt` (s): the rollout's
+    physics step, if not 0 (else the scenario's). `data`, the strategy's state, the
+    model and the kinematics in the strategy's Pinocchio data are left as they were. `strategy` is the running DirectionStrategy (not imported here: it
+    imports this module)."""
+    world, scenario = strategy.world, strategy.scenario
+    model = world.model
+    saved = {name: getattr(strategy, name) for name in SAVED}
+    kept = _ModelState(model)
+    copy = mujoco.MjData(model)
+    mujoco.mj_copyData(copy, model, data)
+    if not objects:
+        kept.without_objects()
+    strategy.plan = Plan(candidate, "", None, [])
+    strategy.step_done, strategy.swing_path, strategy.tracked = None, None, None
+    strategy.q_ref, strategy.qd_ref = saved["q_ref"].copy(), saved["qd_ref"].copy()
+    scheduled = scenario.push if push else None
+    steps, dt = scenario.physics_steps_per_control, scenario.physics_dt
+    if physics_dt > 0.0:
+        model.opt.timestep = dt = physics_dt
+        steps = max(round(scenario.control_dt / dt), 1)
+    now, end = t, t + limit
+    try:
+        state = RobotState.measure(strategy.P, *strategy.P.state(copy.qpos, copy.qvel))
+        while now < end and not stop(copy, state):
+            command = strategy._control(now, copy, state, capture_point(state.com, state.com_velocity))
+            write_servo(model, copy, command)
+            for _ in range(steps):
+                if scheduled is None or not (scheduled.start <= now < scheduled.start + scheduled.duration):
+                    copy.xfrc_applied[:] = 0.0
+                mujoco.mj_step(model, copy)
+                now += dt
+            state = RobotState.measure(strategy.P, *strategy.P.state(copy.qpos, copy.qvel))
+        return copy, state, now
+    finally:
+        for name, value in saved.items():
+            setattr(strategy, name, value)
+        kept.restore()
+        # Pinocchio's data: the kinematics of the present state again
+        RobotState.measure(strategy.P, *strategy.P.state(data.qpos, data.qvel))
 
 
 def simulate(strategy: Any, data: mujoco.MjData, t: float, candidate: Candidate) -> tuple[float, bool]:
     """(fall direction, rad from the strategy's origin; whether the candidate's fall stops) of one
-    candidate simulated from the present state `data` at time `t` (s); `data` is not changed.
-    `strategy` is the running DirectionStrategy (not imported here: it imports this module)."""
-    world, scenario = strategy.world, strategy.scenario
-    model = world.model
-    saved = {name: getattr(strategy, name) for name in SAVED}
-    servo = _ServoState(model)
-    copy = mujoco.MjData(model)
-    mujoco.mj_copyData(copy, model, data)
-    strategy.plan = Plan(candidate, "", None, [])
-    strategy.step_done, strategy.swing_path, strategy.tracked = None, None, None
-    strategy.q_ref, strategy.qd_ref = saved["q_ref"].copy(), saved["qd_ref"].copy()
+    candidate simulated, with the objects and the push, from the present state `data` at time `t`
+    (s) to the fall's end; `data` is not changed."""
+    world = strategy.world
     obstacle_columns = np.array([world.sensors[n].start for n in world.obstacle_sensors], dtype=int)
-    push = scenario.push
-    steps = scenario.physics_steps_per_control
     floor = strategy.config.touchdown_fraction * strategy.com_height
-    now, end = t, t + ROLLOUT_LIMIT
-    try:
-        while now < end:
-            state = RobotState.measure(strategy.P, *strategy.P.state(copy.qpos, copy.qvel))
-            com = state.com
-            if com[2] <= floor or (len(obstacle_columns) and (copy.sensordata[obstacle_columns] > 0).any()):
-                break
-            command = strategy._control(now, copy, state, capture_point(com, state.com_velocity))
-            write_servo(model, copy, command)
-            for _ in range(steps):
-                if push is not None and not (push.start <= now < push.start + push.duration):
-                    copy.xfrc_applied[:] = 0.0
-                mujoco.mj_step(model, copy)
-                now += scenario.physics_dt
-        state = RobotState.measure(strategy.P, *strategy.P.state(copy.qpos, copy.qvel))
-        delta = state.com[:2] - strategy.origin
-        stopped = state.com[2] > floor and not (
-            len(obstacle_columns) and (copy.sensordata[obstacle_columns] > 0).any()
-        )
-        return math.atan2(delta[1], delta[0]) % (2 * math.pi), bool(stopped)
-    finally:
-        for name, value in saved.items():
-            setattr(strategy, name, value)
-        servo.restore()
+
+    def touching(copy: mujoco.MjData) -> bool:
+        return bool(len(obstacle_columns) and (copy.sensordata[obstacle_columns] > 0).any())
+
+    def ended(copy: mujoco.MjData, state: RobotState) -> bool:
+        return bool(state.com[2] <= floor) or touching(copy)
+
+    copy, state, _ = run_candidate(strategy, data, t, candidate, ROLLOUT_LIMIT, ended)
+    delta = state.com[:2] - strategy.origin
+    stopped = state.com[2] > floor and not touching(copy)
+    return math.atan2(delta[1], delta[0]) % (2 * math.pi), bool(stopped)

@@ -33,6 +33,13 @@ from fallbench.preimpact.direction.inertia import (
     to_vector,
 )
 from fallbench.preimpact.direction.oracle import oracle_subset, simulate
+from fallbench.preimpact.direction.rollout import (
+    REMAINDERS,
+    ROLLED,
+    predict_by_rollout,
+    rolled_out,
+    rollout_subset,
+)
 from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import (
     CAPTURE,
@@ -75,6 +82,8 @@ class DirectionStrategy(Strategy):
         "partial_shaping": PARTIAL_SHAPING,
         "whole_body_shaping": WHOLE_BODY_SHAPING,
         "capture": CAPTURE,
+        "rollout_remainder": REMAINDERS,
+        "rollout_candidates": ROLLED,
     }
 
     def __init__(self, world: World, scenario: Scenario) -> None:
@@ -142,8 +151,6 @@ class DirectionStrategy(Strategy):
             if not self.trigger.update(t, xi):
                 return None
             self._plan(t, data, com, com_velocity)
-            if self.config.predictor == "oracle":  # the rollouts left the shared Pinocchio data elsewhere
-                state = RobotState.measure(self.P, *self.P.state(data.qpos, data.qvel))
         self._track(t, data, com, com_velocity)
         command = self._control(t, data, state, xi)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
@@ -176,6 +183,13 @@ class DirectionStrategy(Strategy):
             candidates = oracle_subset(candidates)
             for candidate in candidates:
                 candidate.direction, candidate.capturing = simulate(self, data, t, candidate)
+        elif config.predictor == "rollout":  # the steps (and lifts) simulated briefly: not real time
+            candidates = rollout_subset(candidates, config)
+            for candidate in candidates:
+                if rolled_out(candidate, config.rollout_candidates):
+                    rolled = predict_by_rollout(self, data, t, candidate)
+                    candidate.direction, candidate.capturing = rolled.direction, rolled.capturing
+                    candidate.capture_margin = rolled.capture_margin  # `capture: prefer` ranks steps by it
         self.plan = choose(
             candidates,
             self.regions,
