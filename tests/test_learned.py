@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import gymnasium
@@ -16,6 +17,7 @@ import fallbench.environment  # noqa: F401  (registers fallbench/Fall-v0)
 from fallbench.environment import ENV_ID
 from fallbench.environment.fall import FallEnv
 from fallbench.preimpact.learned.observation import observation_size
+from fallbench.preimpact.learned.onnx import model_problem
 from fallbench.registry import load, simulate_named
 from fallbench.results.store import load_metrics
 from fallbench.scenario import ScenarioError
@@ -224,3 +226,14 @@ def test_environment_physics_step_option(falls: Path) -> None:
     assert env.episode.step - before == 20  # one 20 ms decision = 20 physics steps of 1 ms
     with pytest.raises(ScenarioError, match="physics_dt"):
         FallEnv(falls, physics_dt=0.05)  # longer than the control step
+
+
+def test_shipped_baseline_fits_g1_and_records_its_training() -> None:
+    """The main job's learned baseline: a G1 policy, with the command and seed that made it."""
+    folder = Path(__file__).parent.parent / "examples" / "learned" / "g1_ppo"
+    assert model_problem(folder / "policy.onnx", JOINTS["g1"]) is None
+    assert model_problem(folder / "policy.onnx", JOINTS["talos"]) is not None
+    record = json.loads((folder / "train.json").read_text())
+    assert record["seed"] == 0 and record["timesteps"] >= 1_000_000
+    assert record["export_max_abs_difference"] < 1e-5
+    assert (folder / "policy.onnx").stat().st_size < 1_000_000
