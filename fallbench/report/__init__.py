@@ -229,7 +229,8 @@ FOREST_NOTE = (
     "Dot: the median of its paired changes against the unprotected fall (none + stiff) of the same point "
     "and seed (fell: the mean, i.e. the change in the fraction of runs that fell); bar: 95 % bootstrap "
     "interval; grey line: no change. A bar clear of the line is a change the data support. Marker: "
-    "circle none, square reshape, diamond direction; colour: the gain policy; n: pairs."
+    "circle none, square reshape, diamond direction, triangle any other (e.g. a whole-fall controller such "
+    "as onnx, policy -); colour: the gain policy; n: pairs."
 )
 
 
