@@ -34,6 +34,12 @@ def test_two_objects_leave_two_regions_with_exact_edges() -> None:
     assert _deg(regions) == [(30.0, 120.0), (210.0, 120.0)]
 
 
+def test_a_cone_margin_narrows_every_region_from_both_edges() -> None:
+    circles = [_circle(0, 2, 1), _circle(180, 2, 1)]
+    assert _deg(safe_regions(circles, ORIGIN, math.radians(10))) == [(40.0, 100.0), (220.0, 100.0)]
+    assert safe_regions(circles, ORIGIN, math.radians(61)) == []  # the cones close the regions
+
+
 def test_a_region_across_zero_degrees_is_one_region() -> None:
     regions = safe_regions([_circle(90, 2, 1), _circle(200, 2, 1)], ORIGIN)
     assert len(regions) == 2

@@ -12,6 +12,7 @@ class DirectionConfig:
     mode: str = "auto"  # auto, or a forced no_action | lift_leg | take_step | take_step_pis | whole_body_is
     selection: str = "cascade"  # cascade (NA -> LL -> TS, first safe) | argmin (best score)
     robot_radius: float = 0.54  # m: TALOS's widest footprint off the fall line that still touched an object (`fallbench direction radius`, docs/methods/direction.md); 004: half the leg spread (0.45)
+    cone_margin: float = 0.0  # deg added to each side of every blocked cone when planning (004: 0); the judge's cones stay exact
     consider_factor: float = 1.5  # objects within this times the robot height count
     robot_height: float = 1.7  # m
     w1: float = 0.5  # eq. 4; w2 = 1 - w1

@@ -94,14 +94,16 @@ def blocked_cone(circle: Circle, origin: np.ndarray) -> Cone:
     return Cone(centre, half)
 
 
-def safe_regions(circles: list[Circle], origin: np.ndarray) -> list[SafeRegion]:
+def safe_regions(circles: list[Circle], origin: np.ndarray, margin: float = 0.0) -> list[SafeRegion]:
     """The free cones between the blocked ones, overlapping cones merged (eq. 1 counts
     n_obj - n_int regions, which is wrong when three or more cones overlap; merging is exact).
-    No object: one region, the whole circle. Everything blocked: no region."""
+    No object: one region, the whole circle. Everything blocked: no region. `margin` (rad) widens
+    every blocked cone on both sides (0 in 004)."""
     if not circles:
         return [SafeRegion(0.0, TWO_PI)]
     cones = [blocked_cone(c, origin) for c in circles]
-    intervals = sorted((wrap(c.centre - c.half_angle), 2 * c.half_angle) for c in cones)
+    half_angles = [min(c.half_angle + margin, math.pi) for c in cones]
+    intervals = sorted((wrap(c.centre - half), 2 * half) for c, half in zip(cones, half_angles))
     # Unroll onto a line starting at the first blocked interval and merge.
     base = intervals[0][0]
     merged: list[list[float]] = []

@@ -174,7 +174,7 @@ class DirectionStrategy(Strategy):
             config.robot_radius,
             config.consider_factor * config.robot_height,
         )
-        self.regions = safe_regions(circles, self.origin)
+        self.regions = safe_regions(circles, self.origin, math.radians(config.cone_margin))
         soles = {side: sole_corners(self.world.model, data, body) for side, body in self.feet.items()}
         self.sole_centres = {side: corners.mean(axis=0) for side, corners in soles.items()}
         state = FallState(com, com_velocity, 0.0, config.touchdown_fraction * self.com_height)
