@@ -27,6 +27,10 @@ def test_bootstrap_is_deterministic_and_handles_small_samples() -> None:
     first, again = bootstrap(sample), bootstrap(sample)
     assert (first.value, first.low, first.high) == (again.value, again.low, again.high)
     assert first.low < first.value < first.high and first.n == 25
+    for statistic in ("median", "mean"):  # runs stored in another order: the same interval
+        ordered = bootstrap(sample, statistic)
+        shuffled = bootstrap(np.random.default_rng(2).permutation(sample), statistic)
+        assert (shuffled.low, shuffled.high) == (ordered.low, ordered.high)
     assert (
         bootstrap(sample, "mean", seed=1).low != bootstrap(sample, "mean").low
     )  # the seed is what makes it repeatable

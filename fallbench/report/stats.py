@@ -51,9 +51,10 @@ def bootstrap(
     seed: int = SEED,
 ) -> Estimate:
     """The sample's median (or mean) and its percentile-bootstrap interval over resampled values,
-    with a seeded generator so that the report is deterministic. NaNs are dropped."""
+    with a seeded generator so that the report is deterministic; the values are sorted first, so
+    that the interval does not depend on their order (the order runs finished in). NaNs are dropped."""
     data = np.asarray(values, dtype=float)
-    data = data[~np.isnan(data)]
+    data = np.sort(data[~np.isnan(data)])
     function = {"median": np.median, "mean": np.mean}[statistic]
     if len(data) == 0:
         return Estimate(float("nan"), float("nan"), float("nan"), 0)
