@@ -283,10 +283,10 @@ def _builder_source() -> bytes:
 
 
 MODEL_CACHE_FILES = 32  # compiled models kept on disk (G1's is 33 MB): the least recently written go
-# Scenario keys MuJoCo reads at run time, set on the loaded model rather than compiled in, so that
-# randomised friction (a Gymnasium environment draws one per episode) does not make a model per draw
 TEMPLATES_KEPT = 4  # compiled models kept in memory per process, by cache file
 _TEMPLATES: dict[Path, mujoco.MjModel] = {}
+# Scenario keys MuJoCo reads at run time, set on the loaded model rather than compiled in, so that
+# randomised friction (a Gymnasium environment draws one per episode) does not make a model per draw
 RUNTIME_KEYS = {"friction": Scenario.model_fields["friction"].default, "physics_dt": DEFAULT_PHYSICS_DT}
 
 
