@@ -35,6 +35,7 @@ from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scena
 IMPEDANCE_SHAPE = (0.5, 2.0)  # solimp midpoint and power: MuJoCo's defaults
 ROBOT_COLLISION_BITS = (1, 1)  # contype, conaffinity: robot geoms touch each other and the scene
 FLOOR_NAME = "floor"
+OBSTACLE_PREFIX = "obstacle_"  # geom of obstacle i: obstacle_<i>
 POSTURE_NOISE_STREAM = 1  # random stream of the posture noise, apart from the seed's randomised keys
 
 
@@ -101,9 +102,14 @@ def _soften(geom: mujoco.MjsGeom, scenario: Scenario) -> None:
     geom.solimp = (*contact.impedance, *IMPEDANCE_SHAPE)
 
 
+def obstacle_geoms(model: mujoco.MjModel) -> list[int]:
+    """Ids of the scenario's obstacle geoms in a compiled world."""
+    return [g for g in range(model.ngeom) if model.geom(g).name.startswith(OBSTACLE_PREFIX)]
+
+
 def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, scenario: Scenario) -> None:
     geom = spec.worldbody.add_geom()
-    geom.name = f"obstacle_{index}"
+    geom.name = f"{OBSTACLE_PREFIX}{index}"
     geom.pos = obstacle.pos
     if isinstance(obstacle, Box):
         geom.type = mujoco.mjtGeom.mjGEOM_BOX
@@ -239,7 +245,7 @@ def _add_contact_sensors(spec: mujoco.MjSpec, robot: RobotDescription, obstacles
                 _add_contact_sensor(spec, f"contact:{group}:{body}", body)
     for index in range(obstacles):
         _add_contact_sensor(
-            spec, f"obstacle:{index}", robot.root_body, subtree=True, geom2=f"obstacle_{index}"
+            spec, f"obstacle:{index}", robot.root_body, subtree=True, geom2=f"{OBSTACLE_PREFIX}{index}"
         )
 
 
@@ -495,9 +501,9 @@ def check_scene(scenario: Scenario) -> tuple[str, str] | None:
     mujoco.mj_collision(model, data)
     for contact in data.contact[: data.ncon]:
         names = {model.geom(contact.geom1).name, model.geom(contact.geom2).name}
-        obstacle = next((n for n in names if n.startswith("obstacle_")), None)
+        obstacle = next((n for n in names if n.startswith(OBSTACLE_PREFIX)), None)
         if obstacle is not None and contact.dist < 0:
-            index = int(obstacle.split("_")[1])
+            index = int(obstacle.removeprefix(OBSTACLE_PREFIX))
             return (
                 f"obstacles.{index}",
                 f"intersects the robot at start (penetration {-contact.dist * 1000:.0f} mm)",

@@ -29,6 +29,7 @@ from fallbench.preimpact.direction.candidates import Candidate
 from fallbench.preimpact.direction.selection import Plan
 from fallbench.sim.events import capture_point
 from fallbench.sim.servo import write_servo
+from fallbench.sim.world import obstacle_geoms
 
 ROLLOUT_LIMIT = 2.0  # s after the control trigger
 ORACLE_RADII = (0.25, 0.45)  # m, step lengths simulated
@@ -72,7 +73,7 @@ class _ModelState:
 
     def without_objects(self) -> None:
         """The objects stop colliding with anything (a robot that knows them only as circles)."""
-        objects = [g for g in range(self.model.ngeom) if self.model.geom(g).name.startswith("obstacle_")]
+        objects = obstacle_geoms(self.model)
         self.model.geom_contype[objects] = 0
         self.model.geom_conaffinity[objects] = 0
 

@@ -20,6 +20,7 @@ from fallbench.preimpact.direction.geometry import (
     safe_regions,
 )
 from fallbench.preimpact.direction.scoring import score
+from fallbench.sim.world import obstacle_geoms
 
 if TYPE_CHECKING:
     from fallbench.sim.recorder import Recording
@@ -47,7 +48,7 @@ def clearance(rec: Recording, sample: int) -> float:
     data = mujoco.MjData(model)
     data.qpos[:] = rec.qpos[sample]
     mujoco.mj_kinematics(model, data)
-    obstacles = [g for g in range(model.ngeom) if model.geom(g).name.startswith("obstacle_")]
+    obstacles = obstacle_geoms(model)
     robot = [g for g in range(model.ngeom) if model.geom_bodyid[g] != 0]
     fromto = np.zeros(6)
     return min(
