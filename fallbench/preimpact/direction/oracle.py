@@ -104,9 +104,9 @@ def run_candidate(
     the strategy's own swing control and servo, from the present state `data` at time `t` (s) until
     `stop` says so or `limit` s have passed. `push`: the scenario's push as scheduled (else none);
     `objects`: the objects collide (else they are not there); `physics_dt` (s): the rollout's
-    physics step, if not 0 (else the scenario's). `data`, the strategy's state, the
-    model and the kinematics in the strategy's Pinocchio data are left as they were. `strategy` is the running DirectionStrategy (not imported here: it
-    imports this module)."""
+    physics step, if not 0 (else the scenario's). `data`, the strategy's state, the model and the
+    kinematics in the strategy's Pinocchio data are left as they were. `strategy` is the running
+    DirectionStrategy (not imported here: it imports this module)."""
     world, scenario = strategy.world, strategy.scenario
     model = world.model
     saved = {name: getattr(strategy, name) for name in SAVED}
