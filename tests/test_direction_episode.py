@@ -87,10 +87,21 @@ def test_none_gets_the_obstacle_metrics_too() -> None:
 
 
 def test_actual_direction_says_whether_the_com_touched_down() -> None:
-    """004 Fig. 6's backward fall into free space reaches the touchdown height; its direction is backward."""
-    row = compute_metrics(simulate_named(_shipped("dir_fig6"), "stiff", "none"))
+    """004 Fig. 6's backward fall into free space reaches the touchdown height; its direction is backward,
+    and the direction at the first impact is the CoM's, from the fall trigger to that impact."""
+    rec = simulate_named(_shipped("dir_fig6"), "stiff", "none")
+    row = compute_metrics(rec)
     assert row["actual_fall_end"] == "touchdown" and row["actual_fall_direction_deg"] == pytest.approx(
         180.0, abs=5.0
+    )
+    every = round(rec.scenario.control_dt / rec.scenario.physics_dt)
+    path = com_path(rec, every)
+    start = int(np.searchsorted(rec.time[::every], rec.fall_time))
+    impact = int(np.searchsorted(rec.time[::every], rec.impact_events[0].t))
+    assert start < impact
+    delta = path[impact, :2] - path[start, :2]
+    assert row["impact_fall_direction_deg"] == pytest.approx(
+        math.degrees(math.atan2(delta[1], delta[0])) % 360.0, abs=1e-9
     )
 
 

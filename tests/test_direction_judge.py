@@ -65,12 +65,20 @@ def _authority_rows() -> pd.DataFrame:
         "scenario": "dir_authority",
         "status": "ok",
     }
-    rows = [cell | {"pre_impact": "none", "actual_fall_direction_deg": 350.0, "actual_fall_end": "touchdown"}]
-    for strategy, deg, end in [
-        ("no_action", 352.0, "touchdown"),
-        ("lift_leg_left", 20.0, "touchdown"),  # +30 deg
-        ("take_step_right", 330.0, "touchdown"),  # -20 deg
-        ("take_step_left", 90.0, "run_end"),  # stayed up: no direction
+    rows = [
+        cell
+        | {
+            "pre_impact": "none",
+            "actual_fall_direction_deg": 350.0,
+            "impact_fall_direction_deg": 345.0,
+            "actual_fall_end": "touchdown",
+        }
+    ]
+    for strategy, deg, at_impact, end in [
+        ("no_action", 352.0, 346.0, "touchdown"),
+        ("lift_leg_left", 20.0, 355.0, "touchdown"),  # +30 deg, +10 at the first impact (then rolled)
+        ("take_step_right", 330.0, 335.0, "touchdown"),  # -20 deg, -10 at the first impact
+        ("take_step_left", 90.0, 80.0, "run_end"),  # stayed up: no direction
     ]:
         rows.append(
             cell
@@ -78,6 +86,7 @@ def _authority_rows() -> pd.DataFrame:
                 "pre_impact": "direction",
                 "direction_strategy": strategy,
                 "actual_fall_direction_deg": deg,
+                "impact_fall_direction_deg": at_impact,
                 "actual_fall_end": end,
             }
         )
@@ -88,6 +97,7 @@ def test_authority_spans_the_deflections_of_the_candidates_that_fell() -> None:
     table = authority_table(authority_runs(_authority_rows(), results=None)).iloc[0]  # type: ignore[arg-type]
     assert table["min deflection (deg)"] == -20.0 and table["max deflection (deg)"] == 30.0
     assert table["lift_leg"] == "+30..+30" and table["stayed up"] == 1
+    assert table["min at impact (deg)"] == -10.0 and table["max at impact (deg)"] == 10.0
 
 
 def test_the_first_claim_is_judged_over_hits_whose_need_is_within_authority() -> None:
@@ -106,8 +116,10 @@ def test_the_first_claim_is_judged_over_hits_whose_need_is_within_authority() ->
     )
     hits = judge_hits(pairs, results=None, table=table)  # type: ignore[arg-type]
     assert hits.within_authority.tolist() == [True, True, False]
+    assert hits.within_impact_authority.tolist() == [False, False, False]  # -10..+10 at the first impact
     row = judged_table(pairs, hits).iloc[0]
     assert row["hits within authority"] == 2 and row["avoided, within authority"] == "1/2 (50 %)"
+    assert row["avoided, within authority at first impact"] == "-"
     assert (
         row["avoided, all hits"] == "1/3 (33 %)"
         and row["need <= 15 / 15-30 / 30-45 / > 45 deg"] == "1 / 1 / 0 / 1"
@@ -119,6 +131,7 @@ def test_claims_of_predictors_that_simulate_say_they_are_not_real_time() -> None
         {
             "predictor": ["pendulum", "rollout", "oracle"],
             "within_authority": True,
+            "within_impact_authority": [True, False, True],
             "direction_hit": [True, False, False],
         }
     )

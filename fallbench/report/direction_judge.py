@@ -7,7 +7,9 @@ Authority: the runs of `scenarios/direction_authority.yaml` (scenario `dir_autho
 and right, Take a Step to fixed targets). A candidate's deflection is its actual fall direction
 (deg, control trigger to touchdown) minus `none`'s on the same push, wrapped to (-180, 180]; the
 authority of a push is the span [min, max] of the deflections of the candidates that fell (runs
-that stayed up give no direction and are counted apart).
+that stayed up give no direction and are counted apart). The same span read at the first impact
+(`impact_fall_direction_deg`) leaves out where a body that landed on its hands rolled on to: a
+sideways fall props on its arms and rolls up to 30 deg further before its CoM is down.
 
 Need: `needed_deflection_deg` of the `none` run (outcome.py): the smallest rotation of its actual
 fall direction into a safe region of its own layout (0 inside one). Both come from runs that do
@@ -84,17 +86,33 @@ def authority_runs(runs: pd.DataFrame, results: Path) -> pd.DataFrame:
     suite = with_push(suite, results)
     fallen = (suite.pre_impact == "none") & (suite.actual_fall_end == "touchdown")  # else no direction
     none = suite[fallen].groupby(CELL).actual_fall_direction_deg.first()
+    none_at_impact = (
+        suite[fallen].groupby(CELL).impact_fall_direction_deg.first()
+        if "impact_fall_direction_deg" in suite
+        else pd.Series(dtype=float)
+    )
     forced = suite[suite.pre_impact == "direction"].copy()
     forced["candidate"] = forced.apply(_candidate, axis=1)
     base = forced.set_index(CELL).index.map(lambda k: none.get(k, math.nan))
     forced["none_direction_deg"] = np.asarray(base, dtype=float)
     forced["fell"] = forced.actual_fall_end == "touchdown"
-    forced["deflection_deg"] = [
-        _turn_deg(a, b) if f and a == a else math.nan
-        for a, b, f in zip(forced.none_direction_deg, forced.actual_fall_direction_deg, forced.fell)
-    ]
+    forced["deflection_deg"] = _deflections(forced, none, "actual_fall_direction_deg")
+    forced["impact_deflection_deg"] = _deflections(forced, none_at_impact, "impact_fall_direction_deg")
     return forced[
-        CELL + ["candidate", "fell", "none_direction_deg", "deflection_deg", "actual_fall_direction_deg"]
+        CELL
+        + ["candidate", "fell", "none_direction_deg", "deflection_deg", "impact_deflection_deg"]
+        + ["actual_fall_direction_deg"]
+    ]
+
+
+def _deflections(forced: pd.DataFrame, none: pd.Series, column: str) -> list[float]:
+    """deg: each forced run's `column` direction minus `none`'s on the same push (nan if either has none)."""
+    if column not in forced:
+        return [math.nan] * len(forced)
+    base = forced.set_index(CELL).index.map(lambda k: none.get(k, math.nan))
+    return [
+        _turn_deg(a, b) if f and a == a and b == b else math.nan
+        for a, b, f in zip(np.asarray(base, dtype=float), forced[column], forced.fell)
     ]
 
 
@@ -122,6 +140,9 @@ def authority_table(detail: pd.DataFrame) -> pd.DataFrame:
                 ),  # nan: none stays up
                 "min deflection (deg)": round(float(fell.deflection_deg.min()), 1) if len(fell) else math.nan,
                 "max deflection (deg)": round(float(fell.deflection_deg.max()), 1) if len(fell) else math.nan,
+                "at first impact (deg)": _span(fell.impact_deflection_deg),
+                "min at impact (deg)": round(float(fell.impact_deflection_deg.min()), 1),
+                "max at impact (deg)": round(float(fell.impact_deflection_deg.max()), 1),
                 "no_action": _span(cell[kind == "no_action"].deflection_deg),
                 "lift_leg": _span(cell[kind == "lift_leg"].deflection_deg),
                 "take_step": _span(cell[kind == "take_step"].deflection_deg),
@@ -149,20 +170,28 @@ def judge_hits(pairs: pd.DataFrame, results: Path, table: pd.DataFrame) -> pd.Da
     if hits.empty or table.empty or "need_deg" not in hits:
         return pd.DataFrame()
     hits = with_push(hits.assign(run_id=hits.none_run_id), results)
-    lows, highs = [], []
-    for _, hit in hits.iterrows():
-        cell = _nearest_cell(table, hit.robot, hit.force, hit.push_direction)
-        lows.append(math.nan if cell is None else cell["min deflection (deg)"])
-        highs.append(math.nan if cell is None else cell["max deflection (deg)"])
-    hits["authority_min_deg"], hits["authority_max_deg"] = lows, highs
-    hits["within_authority"] = (hits.need_deg >= hits.authority_min_deg) & (
-        hits.need_deg <= hits.authority_max_deg
+    cells = [_nearest_cell(table, hit.robot, hit.force, hit.push_direction) for _, hit in hits.iterrows()]
+    spans = [
+        ("authority", "min deflection (deg)", "max deflection (deg)"),
+        ("impact_authority", "min at impact (deg)", "max at impact (deg)"),
+    ]
+    for prefix, low, high in spans:
+        hits[f"{prefix}_min_deg"] = [math.nan if cell is None else cell[low] for cell in cells]
+        hits[f"{prefix}_max_deg"] = [math.nan if cell is None else cell[high] for cell in cells]
+    hits["within_authority"] = hits.need_deg.between(hits.authority_min_deg, hits.authority_max_deg)
+    hits["within_impact_authority"] = hits.need_deg.between(
+        hits.impact_authority_min_deg, hits.impact_authority_max_deg
     )
     return hits
 
 
 def _ratio(n: int, m: int) -> str:
     return f"{n}/{m}" + (f" ({100 * n / m:.0f} %)" if m else "")
+
+
+def _avoided(hits: pd.DataFrame) -> str:
+    """n/m (%) of `hits` that `direction` avoided, or '-' without any."""
+    return _ratio(int((~hits.direction_hit.astype(bool)).sum()), len(hits)) if len(hits) else "-"
 
 
 def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
@@ -178,9 +207,10 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
         judged = (
             hits[(hits.scenario == scenario) & (hits.get("predictor", "pendulum") == predictor)]
             if len(hits)
-            else pd.DataFrame(columns=["within_authority", "direction_hit"])
+            else pd.DataFrame(columns=["within_authority", "within_impact_authority", "direction_hit"])
         )
         within = judged[judged.within_authority.astype(bool)] if len(judged) else judged
+        at_impact = judged[judged.within_impact_authority.astype(bool)] if len(judged) else judged
         need = all_hits.need_deg.abs() if "need_deg" in all_hits else pd.Series(dtype=float)
         rows.append(
             {
@@ -202,6 +232,7 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
                 "avoided, within authority": _ratio(int((~within.direction_hit).sum()), len(within))
                 if len(within)
                 else "-",
+                "avoided, within authority at first impact": _avoided(at_impact),
                 "avoided, all hits": _ratio(int((~all_hits.direction_hit).sum()), len(all_hits)),
                 "clear kept clear": _ratio(int((~clear.direction_hit).sum()), len(clear)),
             }
@@ -227,7 +258,8 @@ def within_authority_claim(hits: pd.DataFrame) -> list[dict[str, str]]:
                 f"is within the robot's measured steering authority{oracle}; holds at >= 50 %",
                 "verdict": verdict,
                 "N/M": _ratio(avoided, len(within))
-                + f"; {len(within)} of {len(group)} hits within authority",
+                + f"; {len(within)} of {len(group)} hits within authority"
+                + f"; read at the first impact: {_avoided(group[group.within_impact_authority.astype(bool)])}",
             }
         )
     return rows

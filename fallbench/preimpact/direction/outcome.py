@@ -80,6 +80,7 @@ def obstacle_metrics(rec: Recording, origin_time: float | None) -> dict[str, Any
         "n_safe_regions": -1,
         "actual_fall_end": "",
         "needed_deflection_deg": math.nan,
+        "impact_fall_direction_deg": math.nan,
     }
     if origin_time is None or not math.isfinite(origin_time):
         return row | nan
@@ -107,7 +108,22 @@ def obstacle_metrics(rec: Recording, origin_time: float | None) -> dict[str, Any
     row["actual_score"] = score(direction, regions, config.w1, config.w2)
     row["n_safe_regions"] = len(regions)
     row["needed_deflection_deg"] = math.degrees(needed_deflection(direction, regions))
+    row["impact_fall_direction_deg"] = _direction_at_impact(rec, path, start, every, origin_time)
     return row
+
+
+def _direction_at_impact(
+    rec: Recording, path: np.ndarray, start: int, every: int, origin_time: float
+) -> float:
+    """deg: direction of the CoM's ground projection from the origin to the first impact (the first
+    contact of anything but a foot, as `impact_time`); nan without one after the origin. A body that
+    lands on its hands and then rolls keeps turning; this reads where it landed."""
+    impacts = [event.t for event in rec.impact_events if event.t > origin_time]
+    if not impacts:
+        return math.nan
+    sample = min(int(np.searchsorted(rec.time[::every], impacts[0])), len(path) - 1)
+    delta = path[sample, :2] - path[start, :2]
+    return math.degrees(math.atan2(delta[1], delta[0]) % (2 * math.pi))
 
 
 def _fall_end(
