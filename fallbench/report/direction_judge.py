@@ -140,7 +140,6 @@ def authority_table(detail: pd.DataFrame) -> pd.DataFrame:
                 ),  # nan: none stays up
                 "min deflection (deg)": round(float(fell.deflection_deg.min()), 1) if len(fell) else math.nan,
                 "max deflection (deg)": round(float(fell.deflection_deg.max()), 1) if len(fell) else math.nan,
-                "at first impact (deg)": _span(fell.impact_deflection_deg),
                 "min at impact (deg)": round(float(fell.impact_deflection_deg.min()), 1),
                 "max at impact (deg)": round(float(fell.impact_deflection_deg.max()), 1),
                 "no_action": _span(cell[kind == "no_action"].deflection_deg),
