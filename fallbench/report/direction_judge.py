@@ -79,7 +79,8 @@ def _kind(candidate: str) -> str:
 
 def authority_runs(runs: pd.DataFrame, results: Path) -> pd.DataFrame:
     """One row per forced candidate run of the authority suite: its cell, candidate, whether it fell
-    (touchdown), and its deflection from `none`'s fall on the same push (deg)."""
+    (touchdown), and its deflection from `none`'s fall on the same push (deg), read at touchdown and
+    at the first impact."""
     suite = runs[(runs.scenario == AUTHORITY_SCENARIO) & (runs.status == "ok")]
     if suite.empty or "actual_fall_direction_deg" not in suite:
         return pd.DataFrame()
