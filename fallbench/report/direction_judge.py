@@ -21,6 +21,7 @@ push direction, then nearest force).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -86,19 +87,20 @@ def authority_runs(runs: pd.DataFrame, results: Path) -> pd.DataFrame:
         return pd.DataFrame()
     suite = with_push(suite, results)
     fallen = (suite.pre_impact == "none") & (suite.actual_fall_end == "touchdown")  # else no direction
-    none = suite[fallen].groupby(CELL).actual_fall_direction_deg.first()
-    none_at_impact = (
-        suite[fallen].groupby(CELL).impact_fall_direction_deg.first()
-        if "impact_fall_direction_deg" in suite
-        else pd.Series(dtype=float)
-    )
+    none = suite[fallen].groupby(CELL)
     forced = suite[suite.pre_impact == "direction"].copy()
     forced["candidate"] = forced.apply(_candidate, axis=1)
-    base = forced.set_index(CELL).index.map(lambda k: none.get(k, math.nan))
-    forced["none_direction_deg"] = np.asarray(base, dtype=float)
     forced["fell"] = forced.actual_fall_end == "touchdown"
-    forced["deflection_deg"] = _deflections(forced, none, "actual_fall_direction_deg")
-    forced["impact_deflection_deg"] = _deflections(forced, none_at_impact, "impact_fall_direction_deg")
+    forced["none_direction_deg"] = _on_same_push(forced, none.actual_fall_direction_deg.first())
+    forced["deflection_deg"] = _turns(
+        forced.none_direction_deg, forced.actual_fall_direction_deg, forced.fell
+    )
+    # stores from before impact_fall_direction_deg existed have no first-impact reading
+    if "impact_fall_direction_deg" in suite:
+        at_impact = _on_same_push(forced, none.impact_fall_direction_deg.first())
+        forced["impact_deflection_deg"] = _turns(at_impact, forced.impact_fall_direction_deg, forced.fell)
+    else:
+        forced["impact_deflection_deg"] = math.nan
     return forced[
         CELL
         + ["candidate", "fell", "none_direction_deg", "deflection_deg", "impact_deflection_deg"]
@@ -106,15 +108,15 @@ def authority_runs(runs: pd.DataFrame, results: Path) -> pd.DataFrame:
     ]
 
 
-def _deflections(forced: pd.DataFrame, none: pd.Series, column: str) -> list[float]:
-    """deg: each forced run's `column` direction minus `none`'s on the same push (nan if either has none)."""
-    if column not in forced:
-        return [math.nan] * len(forced)
-    base = forced.set_index(CELL).index.map(lambda k: none.get(k, math.nan))
-    return [
-        _turn_deg(a, b) if f and a == a and b == b else math.nan
-        for a, b, f in zip(np.asarray(base, dtype=float), forced[column], forced.fell)
-    ]
+def _on_same_push(forced: pd.DataFrame, none: pd.Series) -> np.ndarray:
+    """deg: `none`'s direction (indexed by cell) on each forced run's push; nan where it has none."""
+    return np.asarray(forced.set_index(CELL).index.map(lambda k: none.get(k, math.nan)), dtype=float)
+
+
+def _turns(start: Iterable[float], end: Iterable[float], fell: Iterable[bool]) -> list[float]:
+    """deg: the turn from each `start` to its `end` direction, nan where the run did not fall or
+    either direction is missing."""
+    return [_turn_deg(a, b) if f and a == a and b == b else math.nan for a, b, f in zip(start, end, fell)]
 
 
 def _span(values: pd.Series) -> str:
@@ -229,9 +231,7 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
                     )
                 ),
                 "hits within authority": len(within),
-                "avoided, within authority": _ratio(int((~within.direction_hit).sum()), len(within))
-                if len(within)
-                else "-",
+                "avoided, within authority": _avoided(within),
                 "avoided, within authority at first impact": _avoided(at_impact),
                 "avoided, all hits": _ratio(int((~all_hits.direction_hit).sum()), len(all_hits)),
                 "clear kept clear": _ratio(int((~clear.direction_hit).sum()), len(clear)),

@@ -95,14 +95,13 @@ def obstacle_metrics(rec: Recording, origin_time: float | None) -> dict[str, Any
         path, start, int(touched[0]) if len(touched) else None, config.touchdown_fraction * path[0, 2]
     )
     origin = path[start, :2]
-    delta = path[end, :2] - origin
     regions = safe_regions(
         grown_circles(
             scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height
         ),
         origin,
     )
-    direction = math.atan2(delta[1], delta[0]) % (2 * math.pi)
+    direction = _heading(path, start, end)
     row["actual_fall_direction_deg"] = math.degrees(direction)
     row["actual_in_safe_region"] = any(r.contains(direction) for r in regions)
     row["actual_score"] = score(direction, regions, config.w1, config.w2)
@@ -122,8 +121,13 @@ def _direction_at_impact(
     if not impacts:
         return math.nan
     sample = min(int(np.searchsorted(rec.time[::every], impacts[0])), len(path) - 1)
-    delta = path[sample, :2] - path[start, :2]
-    return math.degrees(math.atan2(delta[1], delta[0]) % (2 * math.pi))
+    return math.degrees(_heading(path, start, sample))
+
+
+def _heading(path: np.ndarray, start: int, end: int) -> float:
+    """rad in [0, 2 pi): direction of the CoM's ground projection from sample `start` to `end`."""
+    delta = path[end, :2] - path[start, :2]
+    return math.atan2(delta[1], delta[0]) % (2 * math.pi)
 
 
 def _fall_end(
