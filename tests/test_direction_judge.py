@@ -152,6 +152,21 @@ def test_capture_prefer_takes_the_step_with_the_widest_capture_margin() -> None:
     assert choose([no_action, *steps], regions, capture="off").chosen is no_action  # NA safe: cascade
 
 
+def test_when_no_candidate_is_safe_the_fallback_is_the_best_score_or_no_action() -> None:
+    regions = [SafeRegion(math.radians(80), math.radians(20))]  # safe from 80 to 100 deg only
+    no_action = Candidate("no_action", None, None, SQUARE, direction=math.radians(0))
+    step = _step("left", (0.0, 0.3), 60)  # nearer the region than No Action, still outside it
+    best = choose([no_action, step], regions, when_none_safe="best")
+    assert best.chosen is step and best.chosen.score > 1.0 and best.inertia_shaping == "pis"
+    fallen = choose([no_action, step], regions, when_none_safe="no_action")
+    assert fallen.chosen is no_action and fallen.inertia_shaping == "wbis"  # 004 Fig. 9
+    assert (
+        choose([no_action, step], regions, selection="argmin", when_none_safe="no_action").chosen is no_action
+    )
+    safe = _step("left", (0.0, 0.45), 90)  # a safe candidate is taken whatever the fallback
+    assert choose([no_action, step, safe], regions, when_none_safe="no_action").chosen is safe
+
+
 def test_authority_and_radius_commands_fail_cleanly_without_a_store(tmp_path) -> None:
     from typer.testing import CliRunner
 

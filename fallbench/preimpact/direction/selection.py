@@ -1,7 +1,8 @@
 """Choosing a strategy (004 Secs. IV-A, V; the paper's rule is lost in extraction and rebuilt
 here): score every candidate's predicted direction; take the best candidate of the first class,
 in the order No Action, Lift a Leg, Take a Step, whose score is at most 1 (safe); if none is safe,
-the best of all. Lift a Leg and Take a Step run with partial inertia shaping; No Action chosen
+the best of all (`when_none_safe: best`) or No Action (`no_action`: nothing the prediction can
+justify, as 004's Fig. 9 falls with No Action while unsafe). Lift a Leg and Take a Step run with partial inertia shaping; No Action chosen
 while unsafe runs whole-body inertia shaping (Fig. 9). `mode` forces one choice (Fig. 10)."""
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ PREDICTORS = ("pendulum", "rollout", "oracle")
 PARTIAL_SHAPING = ("upper_body", "eq7", "off")
 WHOLE_BODY_SHAPING = ("off", "on")
 CAPTURE = ("off", "prefer")
+WHEN_NONE_SAFE = ("best", "no_action")
 
 
 @dataclass(frozen=True)
@@ -75,6 +77,7 @@ def choose(
     allow_capture: bool = False,
     forced: Forced = Forced(),
     capture: str = "off",
+    when_none_safe: str = "best",
 ) -> Plan:
     for candidate in candidates:
         candidate.score = score(candidate.direction, regions, w1, w2)
@@ -86,13 +89,14 @@ def choose(
         chosen = max(capturing, key=lambda c: c.capture_margin)
         return Plan(chosen, "", None, candidates)
     if mode == "auto":
-        chosen = None
+        best_of_all = min(usable, key=lambda c: c.score)
+        chosen = best_of_all if best_of_all.score <= 1.0 else None
         if selection == "cascade":
             chosen = next(
                 (best for kind in CLASSES if (best := _best(usable, kind)) is not None and best.score <= 1.0),
                 None,
             )
-        chosen = chosen or min(usable, key=lambda c: c.score)
+        chosen = chosen or (no_action if when_none_safe == "no_action" else best_of_all)
         shaping = (
             "pis"
             if chosen.kind != "no_action"

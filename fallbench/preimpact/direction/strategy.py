@@ -48,6 +48,7 @@ from fallbench.preimpact.direction.selection import (
     PREDICTORS,
     SELECTIONS,
     SIDES,
+    WHEN_NONE_SAFE,
     WHOLE_BODY_SHAPING,
     Forced,
     Plan,
@@ -82,6 +83,7 @@ class DirectionStrategy(Strategy):
         "partial_shaping": PARTIAL_SHAPING,
         "whole_body_shaping": WHOLE_BODY_SHAPING,
         "capture": CAPTURE,
+        "when_none_safe": WHEN_NONE_SAFE,
         "rollout_remainder": REMAINDERS,
         "rollout_candidates": ROLLED,
     }
@@ -200,6 +202,7 @@ class DirectionStrategy(Strategy):
             config.allow_capture,
             Forced(config.swing_side, config.step_length, config.step_bearing),
             config.capture,
+            config.when_none_safe,
         )
         shaping = self.plan.inertia_shaping
         if (
