@@ -130,6 +130,7 @@ FAITHFUL_004 = {  # 004's reading as first built (docs/methods/direction.md, Res
     "whole_body_shaping": "on",
     "step_time_offset": 0.0,
     "step_time_per_m": 1.0,
+    "when_none_safe": "best",
 }
 
 

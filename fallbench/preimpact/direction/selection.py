@@ -1,8 +1,8 @@
 """Choosing a strategy (004 Secs. IV-A, V; the paper's rule is lost in extraction and rebuilt
 here): score every candidate's predicted direction; take the best candidate of the first class,
 in the order No Action, Lift a Leg, Take a Step, whose score is at most 1 (safe); if none is safe,
-the best of all (`when_none_safe: best`) or No Action (`no_action`: nothing the prediction can
-justify, as 004's Fig. 9 falls with No Action while unsafe). Lift a Leg and Take a Step run with partial inertia shaping; No Action chosen
+No Action (`when_none_safe: no_action`: nothing the prediction can justify, as 004's Fig. 9 falls
+with No Action while unsafe) or the best of all (`best`). Lift a Leg and Take a Step run with partial inertia shaping; No Action chosen
 while unsafe runs whole-body inertia shaping (Fig. 9). `mode` forces one choice (Fig. 10)."""
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ def choose(
     allow_capture: bool = False,
     forced: Forced = Forced(),
     capture: str = "off",
-    when_none_safe: str = "best",
+    when_none_safe: str = "no_action",
 ) -> Plan:
     for candidate in candidates:
         candidate.score = score(candidate.direction, regions, w1, w2)
