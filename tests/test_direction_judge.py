@@ -126,6 +126,35 @@ def test_the_first_claim_is_judged_over_hits_whose_need_is_within_authority() ->
     )
 
 
+def test_a_sweeps_direction_variants_are_judged_apart() -> None:
+    """Two settings of one scenario (a swept `when_none_safe`): one row and one claim each."""
+    table = authority_table(authority_runs(_authority_rows(), results=None))  # type: ignore[arg-type]
+    pairs = pd.DataFrame(
+        {
+            "scenario": "dir_x",
+            "settings": ["when_none_safe=best"] * 2 + ["when_none_safe=no_action"] * 2,
+            "none_hit": [True, False, True, False],
+            "direction_hit": [False, True, True, False],
+            "need_deg": [25.0, 0.0, 25.0, 0.0],
+            "robot": "talos",
+            "force": 400.0,
+            "push_direction": 0.0,
+            "none_run_id": ["a", "b", "a", "b"],
+        }
+    )
+    hits = judge_hits(pairs, results=None, table=table)  # type: ignore[arg-type]
+    rows = judged_table(pairs, hits).set_index("settings")
+    assert rows.loc["when_none_safe=best", "avoided, within authority"] == "1/1 (100 %)"
+    assert rows.loc["when_none_safe=best", "clear kept clear"] == "0/1 (0 %)"
+    assert rows.loc["when_none_safe=no_action", "avoided, within authority"] == "0/1 (0 %)"
+    assert rows.loc["when_none_safe=no_action", "clear kept clear"] == "1/1 (100 %)"
+    claims = within_authority_claim(hits)
+    assert [c["N/M"][:3] for c in claims] == ["1/1", "0/1"] and "(when_none_safe=best)" in claims[0][
+        "claim (004)"
+    ]
+    assert "settings" not in judged_table(pairs.drop(columns="settings"), hits.drop(columns="settings"))
+
+
 def test_claims_of_predictors_that_simulate_say_they_are_not_real_time() -> None:
     hits = pd.DataFrame(
         {

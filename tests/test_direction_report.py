@@ -80,3 +80,21 @@ def test_claims_separate_steering_from_contact() -> None:
         [c for c in verdicts.index if c.startswith("a direction fall toward a safe region")][0]
     ]
     assert clear.verdict == "does not hold" and clear["N/M"].startswith("3/4")
+
+
+def test_swept_direction_parameters_label_each_pair_but_the_predictor() -> None:
+    runs = _runs()
+    swept = {"a": (12.0, "best"), "b": (12.0, "no_action"), "c": (0.0, "best"), "d": (None, None)}
+    runs["param:policy_params.direction.cone_margin"] = runs.point.map(lambda p: swept[p][0])
+    runs["param:policy_params.direction.when_none_safe"] = runs.point.map(lambda p: swept[p][1])
+    runs["param:policy_params.direction.predictor"] = "rollout"
+    pairs = paired(runs).set_index("point")
+    assert pairs.settings.to_dict() == {
+        "a": "cone_margin=12, when_none_safe=best",
+        "b": "cone_margin=12, when_none_safe=no_action",
+        "c": "cone_margin=0, when_none_safe=best",
+        "d": "",
+    }
+    assert (pairs.predictor == "rollout").all()
+    assert len(hit_table(pairs.reset_index())) == 4  # one row per variant
+    assert "settings" not in hit_table(paired(_runs()))

@@ -23,13 +23,17 @@ from fallbench.report.direction_judge import (
     authority_table,
     judge_hits,
     judged_table,
+    variants,
     within_authority_claim,
+    without_empty_settings,
 )
 from fallbench.report.figures import _save
 from fallbench.results import store
 from fallbench.scenario import Scenario
 
 PAIR_KEYS = ["point", "policy"]
+DIRECTION_PARAM = "param:policy_params.direction."
+PREDICTOR_PARAM = DIRECTION_PARAM + "predictor"
 PLOT_RADIUS = 2.2  # m, extent of the shaded safe cones
 MAX_YAW_ROWS = 4  # layout turns per scenario shown as rows of their own (more: one row, "all")
 
@@ -67,9 +71,10 @@ def paired(runs: pd.DataFrame) -> pd.DataFrame:
             "layout_yaw": direction.get("param:layout_yaw", pd.Series(0.0, index=direction.index)).fillna(
                 0.0
             ),
-            "predictor": direction.get(
-                "param:policy_params.direction.predictor", pd.Series("pendulum", index=direction.index)
-            ).fillna("pendulum"),
+            "predictor": direction.get(PREDICTOR_PARAM, pd.Series("pendulum", index=direction.index)).fillna(
+                "pendulum"
+            ),
+            "settings": _swept_settings(direction),
             "need_deg": none.get("needed_deflection_deg", pd.Series(np.nan, index=none.index)),
             "none_run_id": none.get("run_id"),
             "direction_run_id": direction.get("run_id"),
@@ -82,19 +87,39 @@ def _ratio(n: int, m: int) -> str:
     return f"{n}/{m}" + (f" ({100 * n / m:.0f} %)" if m else "")
 
 
+def _swept_settings(direction: pd.DataFrame) -> pd.Series:
+    """Each run's swept `direction` parameters but the predictor, e.g. "cone_margin=12,
+    when_none_safe=best" ("" when none is swept), so that a sweep's variants are judged apart."""
+    columns = sorted(c for c in direction if c.startswith(DIRECTION_PARAM) and c != PREDICTOR_PARAM)
+
+    def label(run: pd.Series) -> str:
+        return ", ".join(
+            f"{column.removeprefix(DIRECTION_PARAM)}={run[column]:g}"
+            if isinstance(run[column], float)
+            else f"{column.removeprefix(DIRECTION_PARAM)}={run[column]}"
+            for column in columns
+            if pd.notna(run[column])
+        )
+
+    return direction.apply(label, axis=1) if columns else pd.Series("", index=direction.index)
+
+
 def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
     """Per scenario and layout turn (`layout_yaw`): object hits of `none` vs `direction`, strategies
     chosen, prediction error and planning time."""
     rows = []
     yaws = pairs.groupby("scenario").layout_yaw.transform("nunique")
-    pairs = pairs.assign(layout_yaw=pairs.layout_yaw.where(yaws <= MAX_YAW_ROWS, "all"))
-    for (scenario, predictor, yaw), group in pairs.groupby(["scenario", "predictor", "layout_yaw"]):
+    pairs = variants(pairs).assign(layout_yaw=pairs.layout_yaw.where(yaws <= MAX_YAW_ROWS, "all"))
+    for (scenario, predictor, settings, yaw), group in pairs.groupby(
+        ["scenario", "predictor", "settings", "layout_yaw"]
+    ):
         hits = group[group.none_hit]
         clear = group[~group.none_hit]
         rows.append(
             {
                 "scenario": scenario,
                 "predictor": predictor,
+                "settings": settings,
                 "layout_yaw (deg)": yaw,
                 "runs": len(group),
                 "falls detected": int(group.fell.sum()),
@@ -116,7 +141,7 @@ def hit_table(pairs: pd.DataFrame) -> pd.DataFrame:
                 else math.nan,
             }
         )
-    return pd.DataFrame(rows)
+    return without_empty_settings(pd.DataFrame(rows))
 
 
 def _claim(text: str, n: int, m: int, holds: bool | None, extra: str = "") -> dict[str, str]:

@@ -187,6 +187,19 @@ def judge_hits(pairs: pd.DataFrame, results: Path, table: pd.DataFrame) -> pd.Da
     return hits
 
 
+VARIANT = ["predictor", "settings"]  # a sweep's `direction` variants are judged apart (report/direction.py)
+
+
+def variants(frame: pd.DataFrame) -> pd.DataFrame:
+    """`frame` with the variant columns (004's pendulum, no swept settings, where absent)."""
+    return frame.assign(predictor=frame.get("predictor", "pendulum"), settings=frame.get("settings", ""))
+
+
+def without_empty_settings(table: pd.DataFrame) -> pd.DataFrame:
+    """`table` without its settings column when nothing was swept."""
+    return table.drop(columns="settings") if (table.get("settings", pd.Series("")) == "").all() else table
+
+
 def _ratio(n: int, m: int) -> str:
     return f"{n}/{m}" + (f" ({100 * n / m:.0f} %)" if m else "")
 
@@ -200,14 +213,14 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
     """Per scenario: 004's first claim overall and over the hits whose need is within the measured
     authority (N/M), the clear falls kept clear, and the needs of the hits."""
     rows = []
-    pairs = pairs if "predictor" in pairs else pairs.assign(predictor="pendulum")
-    for (scenario, predictor), group in pairs[pairs.scenario != AUTHORITY_SCENARIO].groupby(
-        ["scenario", "predictor"]
+    pairs, hits = variants(pairs), variants(hits)
+    for (scenario, predictor, settings), group in pairs[pairs.scenario != AUTHORITY_SCENARIO].groupby(
+        ["scenario", *VARIANT]
     ):
         all_hits = group[group.none_hit]
         clear = group[~group.none_hit]
         judged = (
-            hits[(hits.scenario == scenario) & (hits.get("predictor", "pendulum") == predictor)]
+            hits[(hits.scenario == scenario) & (hits.predictor == predictor) & (hits.settings == settings)]
             if len(hits)
             else pd.DataFrame(columns=["within_authority", "within_impact_authority", "direction_hit"])
         )
@@ -218,6 +231,7 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
             {
                 "scenario": scenario,
                 "predictor": predictor,
+                "settings": settings,
                 "runs": len(group),
                 "none hits": len(all_hits),
                 "need 0 deg (model calls none's fall safe)": int((need == 0).sum()),
@@ -237,7 +251,7 @@ def judged_table(pairs: pd.DataFrame, hits: pd.DataFrame) -> pd.DataFrame:
                 "clear kept clear": _ratio(int((~clear.direction_hit).sum()), len(clear)),
             }
         )
-    return pd.DataFrame(rows)
+    return without_empty_settings(pd.DataFrame(rows))
 
 
 def within_authority_claim(hits: pd.DataFrame) -> list[dict[str, str]]:
@@ -246,12 +260,12 @@ def within_authority_claim(hits: pd.DataFrame) -> list[dict[str, str]]:
     if hits.empty:
         return []
     rows = []
-    hits = hits if "predictor" in hits else hits.assign(predictor="pendulum")
-    for predictor, group in hits.groupby("predictor"):
+    for (predictor, settings), group in variants(hits).groupby(VARIANT):
         within = group[group.within_authority.astype(bool)]
         avoided = int((~within.direction_hit).sum())
         verdict = "n/a" if within.empty else ("holds" if avoided >= 0.5 * len(within) else "does not hold")
         oracle = f" ({predictor} prediction: not real time)" if predictor in ("oracle", "rollout") else ""
+        oracle += f" ({settings})" if settings else ""
         rows.append(
             {
                 "claim (004)": "direction avoids the objects that none hits, over the hits whose needed deflection "

@@ -2,8 +2,9 @@
 here): score every candidate's predicted direction; take the best candidate of the first class,
 in the order No Action, Lift a Leg, Take a Step, whose score is at most 1 (safe); if none is safe,
 No Action (`when_none_safe: no_action`: nothing the prediction can justify, as 004's Fig. 9 falls
-with No Action while unsafe) or the best of all (`best`). Lift a Leg and Take a Step run with partial inertia shaping; No Action chosen
-while unsafe runs whole-body inertia shaping (Fig. 9). `mode` forces one choice (Fig. 10)."""
+with No Action while unsafe) or the best of all (`best`). Lift a Leg and Take a Step run with
+partial inertia shaping; No Action chosen while unsafe runs whole-body inertia shaping (Fig. 9).
+`mode` forces one choice (Fig. 10)."""
 
 from __future__ import annotations
 
