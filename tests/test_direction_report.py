@@ -98,3 +98,17 @@ def test_swept_direction_parameters_label_each_pair_but_the_predictor() -> None:
     assert (pairs.predictor == "rollout").all()
     assert len(hit_table(pairs.reset_index())) == 4  # one row per variant
     assert "settings" not in hit_table(paired(_runs()))
+
+
+def test_no_action_chosen_for_want_of_a_safe_candidate_is_not_judged_as_predicted_safe() -> None:
+    """Fig. 6's claim is about No Action predicted safe; `when_none_safe: no_action` also chooses it
+    when nothing is, and such falls (point e, hit) are left out of it."""
+    runs = _runs()
+    extra = runs[runs.point == "c"].assign(point="e")
+    extra.loc[:, "obstacle_hit"] = True
+    extra.loc[extra.pre_impact == "direction", "predicted_score"] = 1.5
+    runs = pd.concat([runs, extra], ignore_index=True)
+    verdicts = claims(runs, paired(runs)).set_index("claim (004)")
+    assert verdicts.loc[
+        "when No Action is chosen (predicted safe), the fall is safe (Fig. 6)", "N/M"
+    ].startswith("1/1")

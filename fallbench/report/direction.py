@@ -192,7 +192,8 @@ def _avoidance_claims(pairs: pd.DataFrame) -> list[dict[str, str]]:
 
 def _strategy_claims(pairs: pd.DataFrame) -> list[dict[str, str]]:
     """Figs. 6 and 9: the strategies chosen, each safe at least once; No Action and whole-body IS safe."""
-    na = pairs[pairs.strategy == "no_action"]
+    # No Action predicted safe, not chosen for want of a safe candidate (`when_none_safe`)
+    na = pairs[(pairs.strategy == "no_action") & (pairs.predicted_score <= 1.0)]
     na_safe = int((~na.direction_hit).sum())
     chosen = pairs.strategy.map(_class)
     classes = {
