@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from fallbench.report.direction import claims, hit_table, paired
+from fallbench.report.direction import claims, hit_table, paired, variant_label
 
 
 def _runs() -> pd.DataFrame:
@@ -97,6 +97,11 @@ def test_swept_direction_parameters_label_each_pair_but_the_predictor() -> None:
     }
     assert (pairs.predictor == "rollout").all()
     assert len(hit_table(pairs.reset_index())) == 4  # one row per variant
+    labels = variant_label(pairs.reset_index()).tolist()
+    assert (
+        labels[0] == "dir_x\nrollout\ncone_margin=12\nwhen_none_safe=best" and labels[3] == "dir_x\nrollout"
+    )
+    assert variant_label(paired(_runs())).tolist() == ["dir_x"] * 4
     assert "settings" not in hit_table(paired(_runs()))
 
 

@@ -435,16 +435,29 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
     return _save(fig, out, stem)
 
 
+def variant_label(pairs: pd.DataFrame) -> pd.Series:
+    """Per pair, its scenario, then (one per line) a predictor other than 004's pendulum and each
+    swept setting: the hit-rate figure's bar labels."""
+    pairs = variants(pairs)
+    predictor = pairs.predictor.where(pairs.predictor == "pendulum", "\n" + pairs.predictor)
+    settings = pairs.settings.where(pairs.settings == "", "\n" + pairs.settings.str.replace(", ", "\n"))
+    return pairs.scenario + predictor.replace("pendulum", "") + settings
+
+
 def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:
-    """Share of falls hitting an object, none vs direction, per scenario."""
+    """Share of falls hitting an object, none vs direction, per scenario and variant (a predictor
+    other than 004's pendulum, swept settings)."""
     if pairs.empty:
         return []
-    rates = pairs.groupby("scenario")[["none_hit", "direction_hit"]].mean() * 100
-    fig, ax = plt.subplots(figsize=(max(5, 1.2 * len(rates)), 3.5))
+    label = variant_label(pairs)
+    rates = pairs.assign(label=label).groupby("label")[["none_hit", "direction_hit"]].mean() * 100
+    longest = max(len(line) for text in rates.index for line in text.split("\n"))  # characters
+    per_bar = max(1.2, 0.075 * longest)  # inches: room for the label's longest line
+    fig, ax = plt.subplots(figsize=(max(5, per_bar * len(rates)), 3.5 + 0.3 * label.str.count("\n").max()))
     x = np.arange(len(rates))
     ax.bar(x - 0.2, rates.none_hit, 0.4, color="#7f7f7f", label="none")
     ax.bar(x + 0.2, rates.direction_hit, 0.4, color="#1f77b4", label="direction")
-    ax.set_xticks(x, rates.index, fontsize=8, rotation=20)
+    ax.set_xticks(x, rates.index, fontsize=7)
     ax.set(ylabel="falls hitting an object (%)", ylim=(0, 105), title="Object hits: none vs direction (004)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, axis="y")
