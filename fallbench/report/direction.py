@@ -93,12 +93,12 @@ def _swept_settings(direction: pd.DataFrame) -> pd.Series:
     columns = sorted(c for c in direction if c.startswith(DIRECTION_PARAM) and c != PREDICTOR_PARAM)
 
     def label(run: pd.Series) -> str:
+        values = {
+            column.removeprefix(DIRECTION_PARAM): run[column] for column in columns if pd.notna(run[column])
+        }
         return ", ".join(
-            f"{column.removeprefix(DIRECTION_PARAM)}={run[column]:g}"
-            if isinstance(run[column], float)
-            else f"{column.removeprefix(DIRECTION_PARAM)}={run[column]}"
-            for column in columns
-            if pd.notna(run[column])
+            f"{name}={value:g}" if isinstance(value, float) else f"{name}={value}"
+            for name, value in values.items()
         )
 
     return direction.apply(label, axis=1) if columns else pd.Series("", index=direction.index)
@@ -439,9 +439,9 @@ def variant_label(pairs: pd.DataFrame) -> pd.Series:
     """Per pair, its scenario, then (one per line) a predictor other than 004's pendulum and each
     swept setting: the hit-rate figure's bar labels."""
     pairs = variants(pairs)
-    predictor = pairs.predictor.where(pairs.predictor == "pendulum", "\n" + pairs.predictor)
-    settings = pairs.settings.where(pairs.settings == "", "\n" + pairs.settings.str.replace(", ", "\n"))
-    return pairs.scenario + predictor.replace("pendulum", "") + settings
+    predictor = ("\n" + pairs.predictor).where(pairs.predictor != "pendulum", "")
+    settings = ("\n" + pairs.settings.str.replace(", ", "\n")).where(pairs.settings != "", "")
+    return pairs.scenario + predictor + settings
 
 
 def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:

@@ -264,12 +264,12 @@ def within_authority_claim(hits: pd.DataFrame) -> list[dict[str, str]]:
         within = group[group.within_authority.astype(bool)]
         avoided = int((~within.direction_hit).sum())
         verdict = "n/a" if within.empty else ("holds" if avoided >= 0.5 * len(within) else "does not hold")
-        oracle = f" ({predictor} prediction: not real time)" if predictor in ("oracle", "rollout") else ""
-        oracle += f" ({settings})" if settings else ""
+        variant = f" ({predictor} prediction: not real time)" if predictor in ("oracle", "rollout") else ""
+        variant += f" ({settings})" if settings else ""
         rows.append(
             {
                 "claim (004)": "direction avoids the objects that none hits, over the hits whose needed deflection "
-                f"is within the robot's measured steering authority{oracle}; holds at >= 50 %",
+                f"is within the robot's measured steering authority{variant}; holds at >= 50 %",
                 "verdict": verdict,
                 "N/M": _ratio(avoided, len(within))
                 + f"; {len(within)} of {len(group)} hits within authority"

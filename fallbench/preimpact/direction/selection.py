@@ -91,12 +91,8 @@ def choose(
         return Plan(chosen, "", None, candidates)
     if mode == "auto":
         best_of_all = min(usable, key=lambda c: c.score)
-        chosen = best_of_all if best_of_all.score <= 1.0 else None
-        if selection == "cascade":
-            chosen = next(
-                (best for kind in CLASSES if (best := _best(usable, kind)) is not None and best.score <= 1.0),
-                None,
-            )
+        ranked = [_best(usable, kind) for kind in CLASSES] if selection == "cascade" else [best_of_all]
+        chosen = next((c for c in ranked if c is not None and c.score <= 1.0), None)  # the first safe
         chosen = chosen or (no_action if when_none_safe == "no_action" else best_of_all)
         shaping = (
             "pis"
