@@ -41,6 +41,13 @@ CASES = {
         "physics_dt",
         "must not exceed control_dt",
     ),
+    "rest_hold_below_step": (
+        GOOD + "rest:\n  hold: 0.0001\n",
+        6,
+        "rest.hold",
+        "shorter than one physics step",
+    ),
+    "rest_threshold_zero": (GOOD + "rest:\n  joint_speed: 0\n", 6, "rest.joint_speed", "greater than 0"),
     "bad_sweep_key": (GOOD + "sweep:\n  push.colour: [1, 2]\n", 6, "push.colour", "unknown key"),
     "bad_sweep_value": (
         GOOD + "sweep:\n  initial.height: [0.5, -1]\n",

@@ -20,6 +20,7 @@ from fallbench.preimpact.direction.outcome import com_path, direction_error_deg,
 from fallbench.sim.events import METHODS
 from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.sim.recorder import Recording
+from fallbench.sim.rest import rest_posture
 from fallbench.sim.servo import pd_demand
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
@@ -337,16 +338,21 @@ def _forces(rec: Recording, forces: dict[str, np.ndarray], impact: float | None)
 
 
 def _outcome(rec: Recording) -> dict[str, object]:
-    """Final height, whether the robot fell, and what it did to the obstacles."""
+    """Whether the run came to rest and when, its final height and posture, whether the robot fell
+    (read at rest), and what it did to the obstacles."""
     world = rec.world
     base_height = rec.qpos[:, 2]
     standing = world.robot.posture_base_height.get(rec.scenario.initial.posture, float(base_height[0]))
     obstacle_force = [
         np.linalg.norm(world.sensor(rec.sensordata, n)[:, 1:4], axis=1) for n in world.obstacle_sensors
     ]
+    fell = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)
     return {
+        "settled": rec.time_to_rest is not None,
+        "time_to_rest": float("nan") if rec.time_to_rest is None else rec.time_to_rest,
+        "rest_posture": rest_posture(rec.rest_frame, fell),
         "final_base_height": float(base_height[-1]),
-        "fell": bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing),
+        "fell": fell,
         "obstacle_contacts": int(sum(bool((f > 0).any()) for f in obstacle_force)),
         "obstacle_force_peak": float(max((f.max() for f in obstacle_force), default=0.0)),
     }

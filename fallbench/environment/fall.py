@@ -13,7 +13,8 @@ the environment calls its `sense` and `act` halves itself and acts where the str
 - reward: minus a weighted sum of fallbench's damage measures over the step (`DamageWeights`).
 - `physics_dt` (s, optional) replaces every fall's physics step (a coarser step trains faster; the
   benchmark judges at the scenario's own step).
-- terminated at the episode's end (its duration simulated, or the run diverged); never truncated.
+- terminated when the robot has come to rest or the run diverged (the same rule as `fallbench run`,
+  fallbench/sim/rest.py); truncated at the scenario's cap (`duration`) if it has not.
 """
 
 from __future__ import annotations
@@ -227,4 +228,6 @@ class FallEnv(gymnasium.Env):
         decided = self._to_decision()
         terms = self.terms.of(self.episode, start, self.episode.step)
         reward = -sum(getattr(self.weights, key) * value for key, value in terms.items())
-        return self._observation(), float(reward), not decided, False, self._info() | {"damage": terms}
+        capped = self.episode.capped  # the cap is a time limit (truncation), rest and divergence end the fall
+        terminated = not decided and not capped
+        return self._observation(), float(reward), terminated, capped, self._info() | {"damage": terms}

@@ -41,6 +41,7 @@ from fallbench.sim.events import (
 )
 from fallbench.sim.impacts import ImpactLog
 from fallbench.sim.recorder import Recording, Trace
+from fallbench.sim.rest import RestWatch
 from fallbench.sim.servo import ServoCommand, write_servo
 from fallbench.sim.support import FootSupport
 from fallbench.sim.world import World, initial_state
@@ -199,11 +200,17 @@ class Episode:
         )
         self.step = self.since = 0  # physics step now, and at the previous control step
         self.physics_s, self.status, self.error = 0.0, "ok", ""
+        self.rest = RestWatch(scenario, world.qvel_adr)
 
     @property
     def finished(self) -> bool:
-        """The episode's end: its duration simulated, or the run diverged."""
-        return self.step >= self.n_steps or self.status == "diverged"
+        """The episode's end: the robot at rest, the cap (`duration`) reached, or the run diverged."""
+        return self.rest.settled or self.capped or self.status == "diverged"
+
+    @property
+    def capped(self) -> bool:
+        """Whether the run reached its cap before coming to rest."""
+        return self.step >= self.n_steps and not self.rest.settled
 
     def run(self) -> Recording:
         while not self.finished:
@@ -245,7 +252,8 @@ class Episode:
         self.write(command)
         self.apply_push(t)
         self.physics()
-        self.diverged()
+        if not self.diverged():
+            self.rest.update(self.step * self.scenario.physics_dt, self.data.qvel)
 
     def found(self) -> np.ndarray:
         """Per contact body: whether its contact sensor found a contact since the last control step."""
@@ -365,6 +373,7 @@ class Episode:
         )
         watched = self.world.contact_found_columns[~self.seen & self.unplanned] if watching else None
         model, data, trace = self.world.model, self.data, self.trace
+        trace.reserve(self.step + self.per_control)
         # s: the earliest takeover falling due (the list does not change during the substeps)
         due_at = min(when for when, _ in self.due) - 1e-9 if self.due else math.inf
         for _ in range(self.per_control - self.step % self.per_control):
@@ -438,6 +447,8 @@ class Episode:
             steps=step,
             status=self.status,
             error=self.error,
+            time_to_rest=self.rest.time_to_rest,
+            rest_frame=self.world.robot.torso_frame(self.data.xmat[self.world.torso_body].reshape(3, 3)),
         )
 
 

@@ -61,17 +61,39 @@ class Recording:
     steps: int = 0
     status: str = "ok"
     error: str = ""
+    time_to_rest: float | None = (
+        None  # s: start of the stretch at rest that ended the run; None = not settled
+    )
+    rest_frame: np.ndarray = field(default_factory=lambda: np.eye(3))  # torso forward/left/up at the end
+
+
+INITIAL_ROWS = 8192  # physics steps the trace starts with: 4.1 s at the default 0.5 ms step
 
 
 class Trace:
-    """The physics-rate arrays of an episode, filled step by step, and the servo changes."""
+    """The physics-rate arrays of an episode, filled step by step, and the servo changes. They
+    grow as the run goes on (`reserve`): a run ends at rest, long before its cap as a rule."""
 
     def __init__(self, n_steps: int, nsensordata: int, nq: int, nv: int, nu: int) -> None:
-        self.sensordata = np.zeros((n_steps, nsensordata))
-        self.qpos = np.zeros((n_steps, nq))
-        self.qvel = np.zeros((n_steps, nv))
-        self.actuator_force = np.zeros((n_steps, nu))
+        self.limit = n_steps  # physics steps at the cap
+        width = {"sensordata": nsensordata, "qpos": nq, "qvel": nv, "actuator_force": nu}
+        rows = min(n_steps, INITIAL_ROWS)
+        self.sensordata, self.qpos, self.qvel, self.actuator_force = (
+            np.zeros((rows, columns)) for columns in width.values()
+        )
         self.changes: list[tuple[int, ServoCommand]] = []  # (physics step, command) where the servo changed
+
+    def reserve(self, steps: int) -> None:
+        """Room for `steps` physics steps (at most the cap's): the arrays double as needed."""
+        rows = len(self.qpos)
+        if steps <= rows:
+            return
+        rows = min(max(steps, 2 * rows), self.limit)
+        for name in ("sensordata", "qpos", "qvel", "actuator_force"):
+            old = getattr(self, name)
+            grown = np.zeros((rows, old.shape[1]))
+            grown[: len(old)] = old
+            setattr(self, name, grown)
 
     def held(self, n_steps: int, nu: int) -> np.ndarray:
         """(4, n_steps, nu) kp, kd, q_ref, qd_ref per physics step from the steps where they changed."""
