@@ -169,13 +169,15 @@ def test_environment_reset_and_step_contract(falls: Path) -> None:
     again, info_again = env.reset(seed=3)
     assert np.array_equal(obs, again) and info["point"] == info_again["point"]  # a seed is one fall
     assert env.reset(seed=4)[1]["point"] != info["point"]  # another seed, another draw
-    terminated, rewards, times = False, [], [info["t"]]
-    while not terminated:
+    terminated = truncated = False
+    rewards, times = [], [info["t"]]
+    while not (terminated or truncated):
         obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
-        assert not truncated and obs.shape == (observation_size(29),)
+        assert obs.shape == (observation_size(29),)
         rewards.append(reward)
         times.append(info["t"])
-    assert info["t"] == pytest.approx(0.5)  # terminated at the episode's end
+    assert truncated and not terminated  # still falling at the 0.5 s cap: a time limit, not an end
+    assert info["t"] == pytest.approx(0.5)
     steps = np.diff(times)  # one step = one decision of the policy, 20 ms apart (control_dt)
     assert np.allclose(steps[:-1], 0.02) and 0 < steps[-1] <= 0.02 + 1e-9
     assert all(r <= 0 for r in rewards) and min(rewards) < 0  # damage costs; the landing costs most
@@ -197,13 +199,27 @@ def test_environment_steps_the_runner_episode(falls: Path, g1_model: Path, tmp_p
     env = gymnasium.make(ENV_ID, scenario=str(fixed)).unwrapped
     session = onnxruntime.InferenceSession(str(g1_model), providers=["CPUExecutionProvider"])
     obs, _ = env.reset(seed=0)
-    terminated = False
-    while not terminated:
-        obs, _, terminated, _, _ = env.step(session.run(None, {"obs": obs[None]})[0][0])
+    terminated = truncated = False
+    while not (terminated or truncated):
+        obs, _, terminated, truncated, _ = env.step(session.run(None, {"obs": obs[None]})[0][0])
     [point] = load([fixed])
     recording = simulate_named(point.scenario, "-", "onnx")
     assert env.episode.step == recording.steps
-    assert np.array_equal(env.episode.trace.qpos, recording.qpos)
+    assert np.array_equal(env.episode.trace.qpos[: recording.steps], recording.qpos)
+
+
+def test_environment_ends_the_episode_at_rest(tmp_path: Path) -> None:
+    """The environment ends a fall by the runner's rule: terminated once the robot is at rest,
+    at the same step as the runner's run (here a short drop the robot lands on its feet from)."""
+    path = tmp_path / "rest.yaml"
+    path.write_text("name: env_rest\nrobot: g1\nduration: 6\ninitial: {posture: default, height: 0.1}\n")
+    env = gymnasium.make(ENV_ID, scenario=str(path)).unwrapped
+    env.reset(seed=0)
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step(np.zeros(29))
+    assert terminated and not truncated and info["t"] < 6.0
+    assert env.episode.rest.settled
 
 
 def test_vectorised_environment(falls: Path) -> None:

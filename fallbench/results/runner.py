@@ -272,9 +272,10 @@ def stored_rows(
 
 
 def expected_cost(spec: RunSpec) -> float:
-    """Relative wall time of a run (measured: a QP policy or reshaping costs ~5x a fixed-gain run),
-    used to start the longest runs first so that no worker is left alone with one at the end."""
-    return spec.point.scenario.duration * (
+    """Relative wall time of a run (measured: a QP policy or reshaping costs ~5x a fixed-gain run;
+    physics steps per simulated second), used to start the longest runs first so that no worker is
+    left alone with one at the end. Runs end at rest, so their cap says little of their length."""
+    return (1.0 / spec.point.scenario.physics_dt) * (
         1 + 4 * (spec.policy == "adaptive_qp") + 2 * (spec.pre_impact != "none")
     )
 
