@@ -133,6 +133,11 @@ class Timing(Strict):
     # one period of 002's 5 ms control loop (the contact is read at one tick, the new gains are
     # written at the next). With 0, the takeover comes one physics step after the contact.
     takeover_latency: Annotated[float, Field(ge=0, le=0.1)] = 0.005
+    # s from the first impact to the switch of every motor, for a strategy that switches per chain
+    # (`reshape`) in a fall whose torso and head never land (on hands and knees, against an object):
+    # without it the strategy reshapes a robot lying still for ever. 1 s: the torso lands within
+    # 0.6 s of the first impact in the shipped falls that land on it (docs/simulation.md).
+    handover_after: Annotated[float, Field(gt=0, le=10)] = 1.0
 
 
 class Contact(Strict):
@@ -165,8 +170,8 @@ class Rest(Strict):
     at rest"): a standing TALOS sways at up to ~0.05 m/s for a few seconds after a disturbance;
     robots lying on the floor under any policy go under 0.01 m/s and 0.1 rad/s per joint."""
 
-    linear_speed: Annotated[float, Field(gt=0, le=10)] = 0.05  # m/s, the root body's
-    angular_speed: Annotated[float, Field(gt=0, le=50)] = 0.2  # rad/s, the root body's
+    linear_speed: Annotated[float, Field(gt=0, le=10)] = 0.1  # m/s, the root body's
+    angular_speed: Annotated[float, Field(gt=0, le=50)] = 0.3  # rad/s, the root body's
     joint_speed: Annotated[float, Field(gt=0, le=100)] = 0.5  # rad/s, every actuated joint
     hold: Annotated[float, Field(gt=0, le=10)] = 1.0  # s all three must hold
 

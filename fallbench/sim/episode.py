@@ -8,7 +8,8 @@ actuators. Everything the metrics need is recorded at the physics rate from MuJo
 Every motor switches to the gain policy at the first impact, unless the pre-impact strategy
 switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
 the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
-lands, when all switch. Contacts the strategy planned (a footstep) are not impacts. A whole-fall
+lands, when all switch, or at the latest `timing.handover_after` s after the first impact (a fall
+that ends on hands and knees never lands on the torso: 002 does not say what follows it). Contacts the strategy planned (a footstep) are not impacts. A whole-fall
 controller (`hands_over` False, a learned fall policy) never hands its motors over: it commands them
 from fall detection to the episode's end, and impacts are only logged.
 
@@ -305,15 +306,19 @@ class Episode:
             return
         self.seen |= fresh
         new, touched = self.names(fresh), self.first_sampled(fresh)
+        first = self.impact.time is None
         self.impact.update(touched, new)
         self.impacts.update(touched, new, self.data, self.data.qpos, self.data.qvel)
-        takeover = self.takeover
+        takeover, timing = self.takeover, self.scenario.timing
         if self.impact.time is None or takeover.switched.all() or not self.strategy.hands_over:
             return  # a whole-fall controller (`hands_over` False) keeps its motors
+        every = np.ones(len(takeover.switched), dtype=bool)
+        if first and self.strategy.per_chain_switching:  # a fall that never lands on the torso ends too
+            self.due.append((touched + timing.handover_after, every))
         everything = not self.strategy.per_chain_switching or new & self.landed_bodies
-        now = np.ones(len(takeover.switched), dtype=bool) if everything else np.zeros_like(takeover.switched)
+        now = every if everything else np.zeros_like(takeover.switched)
         now[select_motors(self.pinocchio, new, self.world.joint_names)] = True
-        self.due.append((touched + self.scenario.timing.takeover_latency, now))
+        self.due.append((touched + timing.takeover_latency, now))
 
     def first_sampled(self, bodies: np.ndarray) -> float:
         """s: the first physics sample since the last control step in which one of `bodies` touched
