@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
-from fallbench.results.converge import WALL_CLOCK
+from fallbench.results.converge import WALL_CLOCK, end_ladder, end_table
 from fallbench.results.runner import RunSpec, simulate
 from fallbench.scenario import Scenario, ScenarioPoint
 from fallbench.sim.rest import RestWatch, rest_posture
@@ -99,3 +100,40 @@ def test_a_run_cut_at_its_cap_is_flagged_not_settled() -> None:
     row = _row(Scenario(name="drop", robot="g1", duration=0.3, initial={"height": 0.25}))
     assert row["settled"] is False and math.isnan(row["time_to_rest"])
     assert row["sim_time"] == pytest.approx(0.3)
+
+
+def _end_runs(capped: dict, held: dict) -> tuple[list, pd.DataFrame, list]:
+    """A ladder of hand-made stored rows: as run, twice the cap, twice the hold."""
+    point = ScenarioPoint(Scenario(name="t", initial={"height": 0.5}), {}, "t.yaml")
+    ladder = end_ladder(point)
+    specs = [RunSpec(rung, "stiff") for rung in ladder.levels]
+    base = {"status": "ok", "settled": True, "time_to_rest": 2.0, "fell": True, "joint_limit_hits": 3}
+    base |= {"contact_force_peak_torso": 1000.0, "wall_time_s": 1.0, "qp_solve_ms_median": 0.1}
+    rows = [base, base | capped, base | held]
+    frame = pd.DataFrame([row | {"run_id": spec.run_id} for row, spec in zip(rows, specs)])
+    return [ladder], frame, specs
+
+
+def test_the_end_check_wants_identical_bits_with_twice_the_cap() -> None:
+    # wall-clock figures may differ; a measure may not, by any amount
+    ladders, runs, specs = _end_runs({"wall_time_s": 2.0, "qp_solve_ms_median": 0.3}, {})
+    assert end_table(ladders, runs, specs).ok.all()
+    ladders, runs, specs = _end_runs({"contact_force_peak_torso": 1000.0 + 1e-9}, {})
+    [row] = end_table(ladders, runs, specs).to_dict("records")
+    assert not row["ok"] and row["cap_changed"] == "contact_force_peak_torso"
+
+
+def test_the_end_check_judges_a_longer_hold_on_the_headline_measures() -> None:
+    ladders, runs, specs = _end_runs({}, {"contact_force_peak_torso": 1040.0, "time_to_rest": 2.0})
+    [row] = end_table(ladders, runs, specs).to_dict("records")
+    assert row["ok"] and row["hold_change"] == pytest.approx(0.04)
+    ladders, runs, specs = _end_runs({}, {"joint_limit_hits": 4})
+    [row] = end_table(ladders, runs, specs).to_dict("records")
+    assert not row["ok"] and row["hold_worst"] == "joint_limit_hits"
+
+
+def test_the_end_check_fails_a_run_that_did_not_settle() -> None:
+    ladders, runs, specs = _end_runs({"settled": False}, {})
+    runs.loc[0, "settled"] = False
+    [row] = end_table(ladders, runs, specs).to_dict("records")
+    assert not row["ok"] and not row["settled"]
