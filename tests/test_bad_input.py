@@ -294,6 +294,15 @@ def test_unknown_policy_or_strategy_is_rejected(
     assert not (tmp_path / "r").exists()
 
 
+def test_unknown_backend_is_rejected(tmp_path: Path, sweep) -> None:
+    path = tmp_path / "ok.yaml"
+    path.write_text(GOOD)
+    result = sweep(path, tmp_path / "r", "--backend", "bogus")
+    assert result.exit_code == 2
+    assert result.stderr == "error: --backend: unknown backend 'bogus'; known: auto, fork, loky, dask\n"
+    assert not (tmp_path / "r").exists() and result.simulated == ()
+
+
 def test_validate_accepts_shipped_scenarios() -> None:
     root = Path(__file__).resolve().parents[1] / "scenarios"
     files = sorted(str(p) for p in root.glob("*.yaml"))
