@@ -182,11 +182,10 @@ def test_results_sql_and_pushed_down_filters(tmp_path: Path) -> None:
 # A consolidation in its own process; with `hold`, it stops at a point of its work (before it adds
 # its part, or in a merge just after the merged part has replaced its staged file, the parts it
 # replaces not yet removed) until told to go on: <marks>/<name>.inside says it is there, the test
-# creates <marks>/<name>.go. <marks>/<name>.calling: about to consolidate. Prints the rows added.
+# creates <marks>/<name>.go. Prints the rows added.
 CONSOLIDATE = """
 import os, sys, time
 from pathlib import Path
-import pyarrow.parquet  # loaded before "calling": from there the consolidation takes milliseconds
 from fallbench.results import store
 
 results, marks, name, hold = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
@@ -215,7 +214,6 @@ elif hold == "merged":
             pause()
 
     store.os.replace = held
-(marks / f"{name}.calling").touch()
 print(store.consolidate(results))
 """
 
@@ -236,18 +234,24 @@ def _wait_for(path: Path, timeout: float = 60.0) -> None:
 
 
 def test_two_consolidations_at_once_add_each_run_once(tmp_path: Path) -> None:
-    """The second consolidation waits for the first's lock, then finds every run in its part."""
+    """A second consolidation (in this process) while another process's holds the lock: it waits,
+    then finds every run in the first's part."""
+    import threading
+
     results, marks = tmp_path / "r", tmp_path / "marks"
     marks.mkdir()
     _add(results, range(20))
     first = _consolidating(results, marks, "first", "add_part")
     _wait_for(marks / "first.inside")  # holding the lock, its part not written
-    second = _consolidating(results, marks, "second")
-    _wait_for(marks / "second.calling")
-    with pytest.raises(subprocess.TimeoutExpired):
-        second.wait(timeout=0.5)  # blocked on the lock (without it, it adds the 20 runs a second time)
+    added: list[int] = []
+    second = threading.Thread(target=lambda: added.append(store.consolidate(results)))
+    second.start()
+    second.join(timeout=0.5)
+    assert second.is_alive()  # waiting for the lock (without it, it adds the 20 runs a second time)
     (marks / "first.go").touch()
-    assert [first.communicate(timeout=60)[0], second.communicate(timeout=60)[0]] == ["20\n", "0\n"]
+    assert first.communicate(timeout=60)[0] == "20\n"
+    second.join(timeout=60)
+    assert added == [0]
     stored = store.load_metrics(results)
     assert len(stored) == 20 and stored.run_id.is_unique
     assert len(list((results / "metrics").glob("part-*.parquet"))) == 1
