@@ -7,6 +7,7 @@ from __future__ import annotations
 import ast
 import re
 import xml.etree.ElementTree as ET
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -25,13 +26,14 @@ def modules(package: Path) -> list[Path]:
 MODULES = modules(PACKAGE)
 
 
-def _robot_names() -> set[str]:
+@cache
+def _robot_names() -> frozenset[str]:
     """Every joint and link name of every registered robot's URDF."""
     names: set[str] = set()
     for name in ROBOTS:
         root = ET.fromstring(get_robot(name).urdf_path.read_text())
         names |= {e.attrib["name"] for tag in ("joint", "link") for e in root.findall(tag)}
-    return names
+    return frozenset(names)
 
 
 def _docstrings(tree: ast.AST) -> set[int]:
