@@ -3,6 +3,8 @@ bounds hold in the solution; the selection rule is 002's and persists once a cha
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -20,18 +22,32 @@ TOL = 1e-4  # relative to the largest term of each row
 FEET = ("leg_left_6_link", "leg_right_6_link")
 
 
+FAILED_SOLVE = 10  # the post-impact fixture's solve that is reported as failed (counting from 0)
+
+
 @pytest.fixture(scope="module")
-def post_impact():
-    """Every control step after a 1 m drop's impact: (policy, q_ref, qpos, qvel, q, qd, points,
-    selected motors, held torques, contact bodies)."""
+def post_impact_run():
+    """A 1 m drop under adaptive_qp, its recording and every control step after its impact:
+    (policy, q_ref, qpos, qvel, q, qd, points, selected motors, held torques the policy handed the
+    QP, contact bodies, QP result or None, (kp, kd) before the step, the command returned, t). Solve
+    number FAILED_SOLVE is reported to the policy as failed."""
     steps = []
-    original = adaptive.AdaptiveQPPolicy.after_impact
+    original, solve_step = adaptive.AdaptiveQPPolicy.after_impact, adaptive.solve_step
+    solves: list[tuple[np.ndarray, object]] = []  # (held torques, result) of the step's solve
+
+    def solve_spy(*args, **kwargs):
+        result, problem = solve_step(*args, **kwargs)
+        if len(solves) == FAILED_SOLVE:
+            assert result.solved
+            result = dataclasses.replace(result, solved=False, status="forced failure")
+        solves.append((args[10].copy(), result))
+        return result, problem
 
     def spy(self, observation, q_ref):
         points = environment_contacts(self.world.model, observation.data, self.scenario.friction)
-        e, e_dot = q_ref - observation.q, -observation.qd
-        held = np.clip(self.kp * e + self.kd * e_dot, -self.world.torque_limit, self.world.torque_limit)
+        before, solved = (self.kp.copy(), self.kd.copy()), len(solves)
         command = original(self, observation, q_ref)
+        held, result = solves[-1] if len(solves) > solved else (None, None)
         steps.append(
             (
                 self,
@@ -44,20 +60,29 @@ def post_impact():
                 np.flatnonzero(self.selected),
                 held,
                 set(points.bodies),
+                result,
+                before,
+                command,
+                observation.t,
             )
         )
         return command
 
-    adaptive.AdaptiveQPPolicy.after_impact = spy
+    adaptive.AdaptiveQPPolicy.after_impact, adaptive.solve_step = spy, solve_spy
     try:
-        simulate_named(Scenario(name="drop", duration=0.9, initial={"height": 1.0}), "adaptive_qp")
+        rec = simulate_named(Scenario(name="drop", duration=0.9, initial={"height": 1.0}), "adaptive_qp")
     finally:
-        adaptive.AdaptiveQPPolicy.after_impact = original
-    return steps
+        adaptive.AdaptiveQPPolicy.after_impact, adaptive.solve_step = original, solve_step
+    return rec, steps
+
+
+@pytest.fixture(scope="module")
+def post_impact(post_impact_run):
+    return post_impact_run[1]
 
 
 def _solve(step, config: QPConfig = QPConfig()):
-    policy, q_ref, qpos, qvel, q_meas, qd_meas, points, selected, held, _ = step
+    policy, q_ref, qpos, qvel, q_meas, qd_meas, points, selected, held, *_ = step
     robot, world = policy.P, policy.world
     q, v = robot.state(qpos, qvel)
     e, e_dot = q_ref - q_meas, -qd_meas
@@ -189,3 +214,24 @@ def test_a_leg_stays_selected_after_its_foot_loses_contact(post_impact) -> None:
         assert all(leg <= selected[k] for k in lifted)
         tested += len(lifted)
     assert tested, "no foot left the floor: the test would not test anything"
+
+
+def test_the_policy_commands_the_solved_gains_and_keeps_them_on_a_failed_solve(post_impact_run) -> None:
+    """The gains the policy hands the servo: on a solved step K and B (clipped at 0) on the selected
+    motors and the previous gains elsewhere; on a failed one the previous gains everywhere, the step
+    counted in qp_failures and its time in the failure times."""
+    rec, steps = post_impact_run
+    solved, failed = 0, []
+    for step in steps:
+        selected, result, (kp, kd), command, t = step[7], *step[10:]
+        expected_kp, expected_kd = kp.copy(), kd.copy()  # nothing selected yet, or a failed solve
+        if result is not None and result.solved:
+            expected_kp[selected], expected_kd[selected] = np.maximum(result.K, 0), np.maximum(result.B, 0)
+            solved += 1
+        elif result is not None:
+            failed.append(t)
+        np.testing.assert_array_equal(command.kp, expected_kp)
+        np.testing.assert_array_equal(command.kd, expected_kd)
+    assert solved > 50 and len(failed) == 1
+    assert sum(np.any(s[12].kp != s[11][0]) for s in steps) > 50  # the solves do change the gains
+    assert rec.policy_stats["qp_failures"] == 1 and rec.policy_failure_times == failed

@@ -283,7 +283,11 @@ def test_file_that_is_not_text_is_one_clear_line(case: str, tmp_path: Path, swee
             "stiff,floppy",
             "--policies: unknown policy 'floppy'; known: stiff, oneshot, zero, adaptive_qp",
         ),
-        ("pre_impact", "none,flail", "--pre-impact: unknown strategy 'flail'; known: none, reshape"),
+        (
+            "pre_impact",
+            "none,flail",
+            "--pre-impact: unknown strategy 'flail'; known: none, reshape, direction, onnx",
+        ),
     ],
 )
 def test_unknown_policy_or_strategy_is_rejected(
@@ -293,8 +297,17 @@ def test_unknown_policy_or_strategy_is_rejected(
     path.write_text(GOOD)
     result = sweep(path, tmp_path / "r", **{choice: value})
     assert result.exit_code == 2
-    assert message in result.stderr
+    assert result.stderr == f"error: {message}\n"  # the whole line: every known name, nothing else
     assert not (tmp_path / "r").exists()
+
+
+def test_unknown_backend_is_rejected(tmp_path: Path, sweep) -> None:
+    path = tmp_path / "ok.yaml"
+    path.write_text(GOOD)
+    result = sweep(path, tmp_path / "r", "--backend", "bogus")
+    assert result.exit_code == 2
+    assert result.stderr == "error: --backend: unknown backend 'bogus'; known: auto, fork, loky, dask\n"
+    assert not (tmp_path / "r").exists() and result.simulated == ()
 
 
 def test_validate_accepts_shipped_scenarios() -> None:

@@ -92,7 +92,43 @@ def test_converge_command_runs_each_step_and_judges_the_freefall(tmp_path: Path)
     assert "imu_peak_z_landing" in result.output and "1 ms" in result.output and "0.5 ms" in result.output
     stored = pd.read_parquet(tmp_path / "r" / "metrics")
     assert sorted(stored["point"]) == ["drop[physics_dt=0.0005]#s0", "drop[physics_dt=0.001]#s0"]
-    assert result.exit_code in (0, 1) and ("converged:" in result.output) == (result.exit_code == 0)
+    assert result.exit_code == 0, result.output
+    assert "converged: 7 (metric, case) pairs within 5% of the previous step" in result.stdout
+
+
+@pytest.mark.parametrize(("halved", "code"), [(104.9, 0), (105.1, 1)])
+def test_converge_command_exits_1_when_the_last_halving_moves_a_metric(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, halved: float, code: int
+) -> None:
+    """Runs made by hand: the landing IMU peak is 100 at the file's step and `halved` at half of it
+    (a 4.9 % or 5.1 % change); every other headline metric stays put."""
+    import fallbench.results.runner as runner
+
+    def runs(specs: list[RunSpec], results: Path, **_: object) -> pd.DataFrame:
+        at_half = [spec.point.scenario.physics_dt < 0.001 for spec in specs]
+        return pd.DataFrame(
+            {
+                "run_id": [spec.run_id for spec in specs],
+                "status": "ok",
+                "imu_peak_z_landing": [halved if half else 100.0 for half in at_half],
+                "knee_limit_margin": 0.5,
+            }
+        )
+
+    monkeypatch.setattr(runner, "run_sweep", runs)
+    scenario = tmp_path / "drop.yaml"
+    scenario.write_text("name: drop\nduration: 0.3\ninitial: {height: 0.3}\nphysics_dt: 0.001\n")
+    result = CliRunner().invoke(
+        app, ["converge", str(scenario), "--levels", "2", "--policies", "stiff", "--results", str(tmp_path)]
+    )
+    assert result.exit_code == code, result.output
+    rows = {line.split()[3]: line.split()[-1] for line in result.stdout.splitlines()[1:3]}
+    assert rows == {"imu_peak_z_landing": str(code == 0), "knee_limit_margin": "True"}
+    if code:
+        assert result.stderr == "1 of 2 (metric, case) pairs moved more than 5% with the last halving\n"
+        assert "converged:" not in result.stdout
+    else:
+        assert result.stdout.endswith("converged: 2 (metric, case) pairs within 5% of the previous step\n")
 
 
 def test_converge_reuses_a_run_of_the_default_step(tmp_path: Path, sweep) -> None:

@@ -11,10 +11,12 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.preimpact.direction.outcome import com_path
+from fallbench.preimpact.direction.outcome import obstacle_metrics
 from fallbench.registry import load, simulate_named
 from fallbench.scenario import Scenario
+from fallbench.sim.impacts import ImpactEvent
 from fallbench.sim.recorder import Recording
+from fallbench.sim.world import build_world, initial_state
 
 RING4 = [
     {"type": "box", "pos": [1.25, 0.0, 0.375], "size": [0.6, 0.6, 0.75]},
@@ -94,15 +96,16 @@ def test_actual_direction_says_whether_the_com_touched_down() -> None:
     assert row["actual_fall_end"] == "touchdown" and row["actual_fall_direction_deg"] == pytest.approx(
         180.0, abs=5.0
     )
-    every = round(rec.scenario.control_dt / rec.scenario.physics_dt)
-    path = com_path(rec, every)
-    start = int(np.searchsorted(rec.time[::every], rec.fall_time))
-    impact = int(np.searchsorted(rec.time[::every], rec.impact_events[0].t))
-    assert start < impact
-    delta = path[impact, :2] - path[start, :2]
-    assert row["impact_fall_direction_deg"] == pytest.approx(
-        math.degrees(math.atan2(delta[1], delta[0])) % 360.0, abs=1e-9
-    )
+    # straight back: the base's own travel from the fall trigger to the first impact (qpos, not the CoM)
+    start, impact = np.searchsorted(rec.time, [rec.fall_time, rec.impact_events[0].t])
+    travel = rec.qpos[impact, :2] - rec.qpos[start, :2]
+    assert np.linalg.norm(travel) > 0.5  # m: it did fall that way
+    assert row["impact_fall_direction_deg"] == pytest.approx(_deg(travel), abs=1.0)
+
+
+def _deg(vector: np.ndarray) -> float:
+    """deg in [0, 360) of a ground-plane vector."""
+    return math.degrees(math.atan2(vector[1], vector[0])) % 360.0
 
 
 def test_actual_direction_stops_at_the_first_object_contact() -> None:
@@ -114,14 +117,93 @@ def test_actual_direction_stops_at_the_first_object_contact() -> None:
     touching = np.any(
         [rec.world.sensor(rec.sensordata, name)[:, 0] > 0 for name in rec.world.obstacle_sensors], axis=0
     )
-    every = round(rec.scenario.control_dt / rec.scenario.physics_dt)
-    path = com_path(rec, every)
-    start = int(np.searchsorted(rec.time[::every], rec.fall_time))
-    contact = int(np.flatnonzero(touching)[0]) // every
-    delta = path[contact, :2] - path[start, :2]
-    assert row["actual_fall_direction_deg"] == pytest.approx(
-        math.degrees(math.atan2(delta[1], delta[0])) % 360.0, abs=1e-9
+    first = int(np.flatnonzero(touching)[0])  # the physics step the table is first touched
+    travel = rec.qpos[first, :2] - rec.qpos[int(np.searchsorted(rec.time, rec.fall_time)), :2]
+    assert np.linalg.norm(travel) > 0.5  # m
+    assert row["actual_fall_direction_deg"] == pytest.approx(_deg(travel), abs=1.0)
+
+
+# A hand-built recording: the standing robot moved bodily (its free joint translated) along a path
+# of straight legs, 5 physics steps a control step; a rigid translation moves the CoM with the base,
+# so the directions are those of the legs. Fall trigger at 0.1 s; before it the robot drifts to 270
+# deg (a reading from t = 0 would bend); 0.1-0.2 s: 0.2 m at 30 deg, an impact at 0.2 s; 0.2-0.3 s:
+# 0.1 m at 90 deg; 0.3-0.4 s: 0.3 m at 200 deg (a reading at the run's end would bend).
+LEGS = [(0.0, 0.1, 270.0, 0.05), (0.1, 0.2, 30.0, 0.2), (0.2, 0.3, 90.0, 0.1), (0.3, 0.4, 200.0, 0.3)]
+
+
+@pytest.fixture(scope="module")
+def ring_world():
+    scenario = Scenario(name="ring", duration=0.4, physics_dt=0.001, obstacles=RING4)
+    return scenario, build_world(scenario)
+
+
+def _handmade(
+    ring_world,
+    contact: tuple[float, float] | None = None,
+    drop: float | None = None,
+    impacts: tuple[float, ...] = (0.05, 0.2),
+) -> Recording:
+    """The recording of LEGS; `contact`: s (from, to) the first obstacle's sensor reads a contact;
+    `drop`: s from which the base is 0.7 m lower (the CoM under the touchdown height)."""
+    scenario, world = ring_world
+    steps, nu = 401, len(world.joint_names)
+    time = np.arange(steps) * scenario.physics_dt
+    qpos = np.tile(initial_state(world, scenario).qpos, (steps, 1))
+    for begin, end, heading, length in LEGS:
+        along = np.clip((time - begin) / (end - begin), 0.0, 1.0)[:, None]
+        qpos[:, :2] += (
+            along * length * np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
+        )
+    if drop is not None:
+        qpos[time >= drop - 1e-9, 2] -= 0.7
+    sensordata = np.zeros((steps, world.model.nsensordata))
+    if contact is not None:
+        first = world.sensors[world.obstacle_sensors[0]].start
+        sensordata[(time >= contact[0] - 1e-9) & (time < contact[1] - 1e-9), first] = 1.0
+    zeros = np.zeros((steps, nu))
+    return Recording(
+        world, scenario, time, sensordata, qpos, np.zeros((steps, world.model.nv)), zeros, zeros, zeros,
+        zeros, zeros, fall_time=0.1, fall_reason="capture_point", fall_times={"capture_point": 0.1},
+        impact_time=None, impact_bodies=[], controller_ms=np.zeros(1), switch_time=np.full(nu, np.nan),
+        impact_events=[ImpactEvent(t, "hands", [], {}, []) for t in impacts], steps=steps,
+    )  # fmt: skip
+
+
+def _leg(*legs: int) -> float:
+    """deg: direction of the sum of the given LEGS."""
+    return _deg(
+        sum(
+            LEGS[i][3] * np.array([math.cos(math.radians(LEGS[i][2])), math.sin(math.radians(LEGS[i][2]))])
+            for i in legs
+        )
     )
+
+
+@pytest.mark.parametrize(
+    ("contact", "drop", "end", "legs"),
+    [
+        ((0.3, 0.4), None, "object", (1, 2)),  # read at the first contact, not at the run's end
+        ((0.03, 0.06), None, "run_end", (1, 2, 3)),  # a contact before the fall trigger does not end it
+        ((0.03, 0.25), None, "object", (1,)),  # ... one that lasts past it does, at its first sample after
+        (None, 0.2, "touchdown", (1,)),
+        ((0.3, 0.4), 0.2, "touchdown", (1,)),  # the earlier of touchdown and contact
+        ((0.2, 0.4), 0.3, "object", (1,)),
+    ],
+)
+def test_actual_direction_on_a_handmade_path(ring_world, contact, drop, end, legs) -> None:
+    rec = _handmade(ring_world, contact, drop)
+    row = obstacle_metrics(rec, rec.fall_time)
+    assert row["actual_fall_end"] == end
+    assert row["actual_fall_direction_deg"] == pytest.approx(_leg(*legs), abs=1e-6)
+    # the first impact after the trigger (0.2 s, not 0.05 s): 30 deg
+    assert row["impact_fall_direction_deg"] == pytest.approx(30.0, abs=1e-6)
+    assert row["obstacle_hit"] is (contact is not None)
+
+
+def test_impact_direction_needs_an_impact_after_the_trigger(ring_world) -> None:
+    rec = _handmade(ring_world, impacts=(0.05,))
+    assert math.isnan(obstacle_metrics(rec, rec.fall_time)["impact_fall_direction_deg"])
+    assert math.isnan(obstacle_metrics(rec, None)["actual_fall_direction_deg"])
 
 
 FAITHFUL_004 = {  # 004's reading as first built (docs/methods/direction.md, Results on TALOS)

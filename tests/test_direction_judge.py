@@ -5,21 +5,26 @@ whose need lies within it (hand-made rows)."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from typer.testing import CliRunner
 
+from fallbench.cli import app
 from fallbench.preimpact.direction.candidates import Candidate
 from fallbench.preimpact.direction.geometry import SafeRegion, needed_deflection
 from fallbench.preimpact.direction.selection import Forced, choose
 from fallbench.report.direction_judge import (
+    AUTHORITY_SCENARIO,
     authority_runs,
     authority_table,
     judge_hits,
     judged_table,
     within_authority_claim,
 )
+from fallbench.results import store
 
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
@@ -204,3 +209,70 @@ def test_authority_and_radius_commands_fail_cleanly_without_a_store(tmp_path) ->
     for command in ("authority", "radius"):
         result = CliRunner().invoke(app, ["direction", command, "--results", str(tmp_path / "nothing")])
         assert result.exit_code == 2 and result.output.startswith("error: ")
+
+
+def _stored(results: Path, rows: list[tuple[dict, dict, pd.DataFrame | None]]) -> None:
+    """A small store: (scenario of the spec, metric row, time series or None) per run."""
+    for k, (scenario, row, series) in enumerate(rows):
+        rid = f"{k:016x}"
+        spec = {"scenario": scenario, "policy": "stiff"}
+        store.write_run(results, rid, spec, {"run_id": rid, **row}, series, "full")
+
+
+def test_direction_authority_command_on_a_small_store(tmp_path: Path) -> None:
+    results = tmp_path / "r"
+    rows = [{k: v for k, v in row.items() if v == v} for row in _authority_rows().to_dict("records")]
+    _stored(results, [({"name": AUTHORITY_SCENARIO}, row, None) for row in rows])  # `none` has no strategy
+    out = tmp_path / "authority.csv"
+    result = CliRunner().invoke(app, ["direction", "authority", "--results", str(results), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    [row] = pd.read_csv(out).to_dict("records")
+    assert (row["min deflection (deg)"], row["max deflection (deg)"]) == (-20.0, 30.0)
+    assert (row["min at impact (deg)"], row["max at impact (deg)"]) == (-10.0, 10.0)
+    assert row["lift_leg"] == "+30..+30" and row["stayed up"] == 1
+    assert result.stdout.startswith("| robot") and "+30..+30" in result.stdout
+
+
+def test_direction_radius_command_on_a_small_store(tmp_path: Path) -> None:
+    """Falls straight ahead (0 deg) from the origin past one cylinder of radius 0.2 m at 2 m ahead
+    and 0.5, 0.6 or 0.8 m aside (0.3, 0.4, 0.6 m off the fall's line): two hits, one clear fall; a
+    cylinder behind the fall is left out."""
+    results = tmp_path / "r"
+    series = pd.DataFrame({"t": [0.0, 0.1, 0.2], "com_x": 0.0, "com_y": 0.0})
+    runs = []
+    for k, (x, y, hit) in enumerate(
+        [(2.0, 0.5, True), (2.0, -0.6, True), (2.0, 0.8, False), (-2.0, 0.0, True)]
+    ):
+        scenario = {
+            "name": "bearing",
+            "duration": 1.0,
+            "obstacles": [{"type": "cylinder", "pos": [x, y, 0.5], "radius": 0.2, "height": 1.0}],
+        }
+        row = {
+            "scenario": "bearing",
+            "point": f"bearing#s{k}",
+            "policy": "stiff",
+            "pre_impact": "none",
+            "status": "ok",
+            "fall_time": 0.1,
+            "actual_fall_direction_deg": 0.0,
+            "obstacle_hit": hit,
+        }
+        runs.append((scenario, row, series))
+    _stored(results, runs)
+    result = CliRunner().invoke(app, ["direction", "radius", "--results", str(results)])
+    assert result.exit_code == 0, result.output
+    header, _, line = result.stdout.splitlines()
+    cells = dict(
+        zip(
+            [c.strip() for c in header.strip("|").split("|")], [c.strip() for c in line.strip("|").split("|")]
+        )
+    )
+    assert cells == {
+        "robot": "talos",
+        "falls": "3",
+        "hits": "2",
+        "radius (m): widest hit": "0.4",
+        "narrowest clear fall (m)": "0.6",
+        "clear falls narrower than the radius": "0",
+    }

@@ -17,6 +17,7 @@ from fallbench.sim.events import (
     CapturePointDetector,
     FallDetector,
     FreefallDetector,
+    ImpactDetector,
     TiltDetector,
     capture_point,
     signed_distance,
@@ -158,3 +159,54 @@ def test_posture_noise_moves_the_upper_body_and_leaves_the_robot_standing() -> N
     )
     rec = simulate_named(noisy, "stiff")
     assert rec.fall_time is None and rec.fall_times == {}
+
+
+def test_freefall_needs_a_whole_hold_and_a_reading_above_resets_it() -> None:
+    """Accelerometer readings every 5 ms against a 20 ms hold: dips of 15 ms separated by one normal
+    reading never fire; a dip of 20 ms fires, dated from its first reading, and stays fired."""
+    detector = FreefallDetector(threshold=3.0, hold=0.02)
+    low = np.array([0.0, 0.0, 2.9])  # below the threshold
+    readings = [low] * 3 + [STANDING_ACC] + [low] * 4 + [STANDING_ACC]  # 0-10 ms, 15 ms, 20-35 ms, 40 ms
+    for k, acc in enumerate(readings):
+        assert not detector.update(0.005 * k, acc), f"fired at {0.005 * k} s"
+    assert detector.since is None  # the last normal reading reset the timer
+    for k in range(9, 13):  # 45-60 ms: 15 ms of free fall so far
+        assert not detector.update(0.005 * k, low)
+    assert detector.update(0.065, low) and detector.time == pytest.approx(0.045)
+    assert detector.update(0.07, STANDING_ACC) and detector.time == pytest.approx(0.045)
+
+
+def test_impact_is_the_first_new_contact_after_the_fall_starts() -> None:
+    detector = ImpactDetector()
+    assert not detector.update(0.0, {"knee"})  # before the fall no contact is an impact
+    detector.start({"left_foot", "right_foot"})  # the support when the fall was detected
+    detector.start({"hand"})  # later calls keep the first support
+    assert not detector.update(0.01, {"left_foot", "right_foot"})
+    assert not detector.update(0.02, {"left_foot"})  # losing a support contact is no impact
+    assert detector.update(0.03, {"left_foot", "knee", "hand"})
+    assert (detector.time, detector.bodies) == (0.03, ["hand", "knee"])
+    assert detector.update(0.04, {"head"}) and (detector.time, detector.bodies) == (0.03, ["hand", "knee"])
+
+
+def test_a_detector_fires_and_the_robot_stays_up() -> None:
+    """A push TALOS survives (235 N) with a capture-point margin of -3 cm, inside the support polygon:
+    the detector fires, so the run has a fall time, but the robot never leaves its feet: not fallen."""
+    scenario = Scenario(
+        name="p",
+        duration=1.0,
+        push=Push(force=235, direction=0, duration=0.1),
+        detection={"capture_point_margin": -0.03},
+    )
+    rec = simulate_named(scenario, "stiff")
+    row = compute_metrics(rec)
+    assert rec.fall_reason == "capture_point" and 0.1 < rec.fall_time < 0.4
+    assert row["fall_time"] == rec.fall_time and row["fell"] is False
+    assert rec.qpos[:, 2].min() > 0.9 and not rec.impact_events and np.isnan(row["impact_time"])
+
+
+def test_a_push_that_topples_the_robot_is_a_fall() -> None:
+    rec = simulate_named(
+        Scenario(name="p", duration=1.5, push=Push(force=370, direction=0, duration=0.1)), "stiff"
+    )
+    row = compute_metrics(rec)
+    assert row["fell"] is True and row["final_base_height"] < 0.4 and rec.impact_events

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -45,17 +46,60 @@ def test_without_reshaping_every_motor_switches_at_once() -> None:
     np.testing.assert_array_equal(_first_switch(rec), 0.0)
 
 
+def _first_touch(rec: Recording, bodies: list[str]) -> tuple[str, int] | None:
+    """(body, physics step) of the first contact among `bodies` after the fall, from the contact
+    sensors."""
+    world = rec.world
+    after = rec.time >= rec.fall_time
+    touches = [
+        (int(np.argmax(found)), body)
+        for body, column in zip(world.contact_bodies, world.contact_found_columns)
+        if body in bodies and (found := (rec.sensordata[:, column] > 0) & after).any()
+    ]
+    return (min(touches)[1], min(touches)[0]) if touches else None
+
+
+def _contact_point(rec: Recording, body: str, step: int) -> np.ndarray:
+    """m: mean of the body's contact points in the recorded state nearest after `step` that has one."""
+    model, data = rec.world.model, mujoco.MjData(rec.world.model)
+    for k in range(step, min(step + 10, len(rec.time))):
+        data.qpos[:], data.qvel[:] = rec.qpos[k], rec.qvel[k]
+        mujoco.mj_forward(model, data)
+        points = [
+            c.pos.copy()
+            for c in data.contact[: data.ncon]
+            if model.body(body).id in (model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2])
+        ]
+        if points:
+            return np.mean(points, axis=0)
+    raise AssertionError(f"{body}: no contact in the states after step {step}")
+
+
 def test_reshape_metrics(reshaped: Recording) -> None:
     row = compute_metrics(reshaped)
-    # The class at detection is the push's; at the first impact it is the fall's outcome, which the
-    # step moves for this reshaped back fall (1 / 0.5 / 0.25 ms: back / front / back, first touching
-    # a wrist / a thigh / the torso): the reshaped landing is not converged in the step.
+    world = reshaped.world
+    # The class at detection is the push's. The fall goes the push's way (the base travels straight
+    # back); the crouched landing leans the waist back and to the right at the first impact (-128
+    # deg, just past the back/right boundary at -135 deg), and the step moves that lean.
     assert row["fall_class_at_detection"] == "back" and row["fall_class_before_impact"] == "back"
-    assert row["fall_class"] in ("front", "back", "left", "right")
+    start, impact = np.searchsorted(reshaped.time, [reshaped.fall_time, reshaped.impact_events[0].t])
+    travel = reshaped.qpos[impact, :2] - reshaped.qpos[start, :2]
+    assert np.linalg.norm(travel) > 0.5 and abs(abs(np.degrees(np.arctan2(travel[1], travel[0]))) - 180) < 5
+    assert abs(row["fall_direction_deg"]) > 90.0 and row["fall_class"] in ("back", "left", "right")
     assert row["preimpact_qp_steps"] > 50 and row["preimpact_qp_ms_median"] > 0
-    assert 0 < row["landing_error"] < 2.0  # m from the chosen BIP to the wrist's first contact
-    assert row["time_to_first_impact"] == pytest.approx(reshaped.impact_events[0].t - reshaped.fall_time)
-    # Which limb lands first is the fall's outcome, and it moves with the step: at 1 ms a wrist
-    # (1.01 s), at 0.5 and 0.25 ms a thigh (0.91 and 0.98 s); the row must report what happened.
-    assert row["first_impact_group"] == reshaped.impact_events[0].group
+    # The first impact: the first contact after the fall of anything but a foot, by the contact sensors.
+    group_of = {name.split(":")[2]: group for group, names in world.contact_groups.items() for name in names}
+    body, step = _first_touch(reshaped, [b for b in world.contact_bodies if group_of[b] != "feet"])
+    assert row["time_to_first_impact"] == pytest.approx(reshaped.time[step] - reshaped.fall_time, abs=0.0051)
+    assert row["first_impact_group"] == group_of[body]
+    # The landing error of each hand: its first contact point (the state at its sensor's first
+    # reading) to the point the strategy aimed it at then.
+    for side in ("left", "right"):
+        hand = [b for b in world.robot.body_groups["hands"] if f"_{side}_" in b]
+        body, step = _first_touch(reshaped, hand)
+        target = reshaped.strategy.landing_target(side, reshaped.time[step])
+        assert target is not None
+        expected = float(np.linalg.norm(_contact_point(reshaped, body, step) - target))
+        assert row[f"landing_error_{side}"] == pytest.approx(expected, abs=0.02), side
+        assert row[f"landing_error_{side}"] < 0.6  # m: within the arm's reach of its target
     assert not row["head_before_hands"]

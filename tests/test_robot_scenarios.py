@@ -139,3 +139,47 @@ def test_root_and_feet_have_collision_corners(name: str) -> None:
         if name == "talos":
             assert set(world.model.geom_bodyid[geoms]) == {body}
     assert np.isfinite(corners).all()
+
+
+SRDF = """<robot name="r">
+  <group_state name="crouch" group="all">
+    <joint name="root_joint" value="0 0 0.8 0 0 0 1"/>
+    <joint name="knee" value="1.2"/>
+    <joint name="hip" value="-0.6"/>
+  </group_state>
+  <group_state name="zero" group="all">
+    <joint name="knee" value="0"/>
+  </group_state>
+  <disable_collisions link1="thigh" link2="shin" reason="Adjacent"/>
+  <disable_collisions link1="base" link2="thigh" reason="Never"/>
+  <rotor_params>
+    <joint name="knee" mass="2e-5" gear_ratio="100"/>
+    <joint name="hip" mass="1e-5"/>
+  </rotor_params>
+</robot>
+"""
+
+
+def test_srdf_readers(tmp_path: Path) -> None:
+    from fallbench.robots.description import (
+        read_srdf_armature,
+        read_srdf_disabled_collisions,
+        read_srdf_postures,
+    )
+
+    path = tmp_path / "r.srdf"
+    path.write_text(SRDF)
+    postures, heights = read_srdf_postures(path)
+    assert postures == {"crouch": {"knee": 1.2, "hip": -0.6}, "zero": {"knee": 0.0}}
+    assert heights == {"crouch": 0.8}  # the free-flyer's z, only where the state gives it
+    assert read_srdf_disabled_collisions(path) == (("thigh", "shin"), ("base", "thigh"))
+    armature = read_srdf_armature(path)
+    assert armature.keys() == {"knee"} and armature["knee"] == pytest.approx(0.2)  # 2e-5 kg m^2 x 100^2
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_a_joint_without_default_gains_is_named(name: str) -> None:
+    robot = get_robot(name)
+    assert all(kp > 0 and kd > 0 for kp, kd in map(robot.default_gains, robot.leg_joints))
+    with pytest.raises(KeyError, match=rf"robot '{name}': no default gains for joint 'tail_joint'"):
+        robot.default_gains("tail_joint")

@@ -146,3 +146,15 @@ def test_run_one_prints_metrics_and_export_loads_alone(tmp_path: Path) -> None:
     imu = model.site(int(accelerometer.objid[0]))
     assert imu.name == "imu" and model.body(int(imu.bodyid[0])).name == get_robot("talos").imu_body
     os.remove(scene)
+
+
+def test_run_one_exits_1_on_a_diverged_run(tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        app, ["run", "one", str(_write(tmp_path)), "--point", "3", "--results", str(tmp_path / "r")]
+    )
+    assert result.exit_code == 1, result.output
+    printed = dict(line.split(maxsplit=1) for line in result.stdout.splitlines() if len(line.split()) > 1)
+    assert printed["status"] == "diverged" and printed["point"] == "boom#s0"
+    assert store.consolidate(tmp_path / "r") == 1
+    [stored] = load_metrics(tmp_path / "r").status
+    assert stored == "diverged"  # stored all the same

@@ -70,14 +70,25 @@ def test_cached_model_simulates_bit_identically(tmp_path: Path, monkeypatch: pyt
 def test_model_cache_keeps_the_newest_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.setattr(world, "MODEL_CACHE_FILES", 2)
-    for index, softness in enumerate((0.02, 0.03, 0.04)):  # three worlds, three files
+    cache = tmp_path / "fallbench"
+    softnesses = (0.02, 0.03, 0.04)
+    written: list[Path] = []  # each world's file, oldest first
+    for index, softness in enumerate(softnesses):  # three worlds, three files
+        before = set(cache.glob("world-*.mjb"))
         world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": softness}))
+        [new] = set(cache.glob("world-*.mjb")) - before
+        written.append(new)
         time.sleep(0.01)  # distinct modification times
         monkeypatch.setattr(world, "_TEMPLATES", {})
-        assert len(list((tmp_path / "fallbench").glob("world-*.mjb"))) == min(index + 1, 2)
-    with monkeypatch.context() as cached:  # the newest two stayed
+        assert len(list(cache.glob("world-*.mjb"))) == min(index + 1, 2)
+    assert sorted(cache.glob("world-*.mjb")) == sorted(written[1:])  # the oldest went, the newest two stayed
+    with monkeypatch.context() as cached:  # ... and are read, not compiled again
         cached.setattr(world, "build_spec", _not_compiled)
-        world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": 0.04}))
+        for softness in softnesses[1:]:
+            world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": softness}))
+            cached.setattr(world, "_TEMPLATES", {})
+        with pytest.raises(AssertionError, match="compiled again"):
+            world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": 0.02}))
 
 
 LOADS_NUMBA = """

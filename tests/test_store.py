@@ -4,6 +4,9 @@ never duplicates a row, the parts read in DuckDB and pandas, `fallbench results 
 from __future__ import annotations
 
 import shutil
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import duckdb
@@ -172,3 +175,135 @@ def test_results_sql_and_pushed_down_filters(tmp_path: Path) -> None:
     bad = runner.invoke(app, ["results", "--results", str(results), "--sql", "SELECT nope FROM runs"])
     assert bad.exit_code == 2 and bad.stderr.count("\n") == 1 and "nope" in bad.stderr
     assert bad.stderr.startswith("error: --sql")
+
+
+# ---------------------------------------------------------------- two writers on one store
+
+# A consolidation in its own process; with `hold`, it stops at a point of its work (before it adds
+# its part, or in a merge just after the merged part has replaced its staged file, the parts it
+# replaces not yet removed) until told to go on: <marks>/<name>.inside says it is there, the test
+# creates <marks>/<name>.go. Prints the rows added.
+CONSOLIDATE = """
+import os, sys, time
+from pathlib import Path
+from fallbench.results import store
+
+results, marks, name, hold = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
+
+
+def pause():
+    (marks / f"{name}.inside").touch()
+    while not (marks / f"{name}.go").exists():
+        time.sleep(0.005)
+
+
+if hold == "add_part":
+    add_part = store._add_part
+
+    def held(table, rows):
+        pause()
+        add_part(table, rows)
+
+    store._add_part = held
+elif hold == "merged":
+    replace = os.replace
+
+    def held(src, dst):
+        replace(src, dst)
+        if str(src).endswith(".staged.tmp"):
+            pause()
+
+    store.os.replace = held
+print(store.consolidate(results))
+"""
+
+
+def _consolidating(results: Path, marks: Path, name: str, hold: str = "") -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-c", CONSOLIDATE, str(results), str(marks), name, hold],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _wait_for(path: Path, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while not path.exists():
+        assert time.monotonic() < end, f"{path.name} never appeared"
+        time.sleep(0.005)
+
+
+def test_two_consolidations_at_once_add_each_run_once(tmp_path: Path) -> None:
+    """A second consolidation (in this process) while another process's holds the lock: it waits,
+    then finds every run in the first's part."""
+    import threading
+
+    results, marks = tmp_path / "r", tmp_path / "marks"
+    marks.mkdir()
+    _add(results, range(20))
+    first = _consolidating(results, marks, "first", "add_part")
+    _wait_for(marks / "first.inside")  # holding the lock, its part not written
+    added: list[int] = []
+    second = threading.Thread(target=lambda: added.append(store.consolidate(results)))
+    second.start()
+    second.join(timeout=0.5)
+    assert second.is_alive()  # waiting for the lock (without it, it adds the 20 runs a second time)
+    (marks / "first.go").touch()
+    assert first.communicate(timeout=60)[0] == "20\n"
+    second.join(timeout=60)
+    assert added == [0]
+    stored = store.load_metrics(results)
+    assert len(stored) == 20 and stored.run_id.is_unique
+    assert len(list((results / "metrics").glob("part-*.parquet"))) == 1
+
+
+def test_a_reader_during_a_merge_sees_each_row_once(tmp_path: Path) -> None:
+    """A merge stopped with the merged part in place and the parts it replaces not yet removed: a
+    reader waits for it and then reads every run once."""
+    import threading
+
+    results, marks = tmp_path / "r", tmp_path / "marks"
+    marks.mkdir()
+    for i in range(store.FANOUT - 1):
+        _add(results, range(i, i + 1))
+        store.consolidate(results)
+    _add(results, range(store.FANOUT - 1, store.FANOUT))  # the eighth part: a merge
+    merging = _consolidating(results, marks, "merge", "merged")
+    _wait_for(marks / "merge.inside")
+    parts = list((results / "metrics").glob("part-*.parquet"))
+    assert len(parts) == store.FANOUT + 1  # the merged part and the eight it replaces
+    read: list[pd.DataFrame] = []
+    reader = threading.Thread(target=lambda: read.append(store.load_metrics(results)))
+    reader.start()
+    reader.join(timeout=0.5)
+    assert reader.is_alive()  # waiting for the merge (without the lock it reads every row twice)
+    (marks / "merge.go").touch()
+    assert merging.communicate(timeout=60)[0] == "1\n"
+    reader.join(timeout=60)
+    [rows] = read
+    assert len(rows) == store.FANOUT and rows.run_id.is_unique
+
+
+def test_two_writers_of_one_run_keep_the_first_stored(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two workers finish the same run: the second to rename its folder finds the first's in place,
+    keeps it and leaves no temporary folder behind."""
+    results = tmp_path / "r"
+    row = _row(1)
+    rid = str(row["run_id"])
+    write = store._fsync_write
+    raced = []
+
+    def other_worker_first(path: Path, data: bytes) -> None:
+        if path.name == store.METRICS_JSON and not raced:  # the other worker stores it meanwhile
+            raced.append(path)
+            store.write_run(results, rid, {"i": 1}, {**row, "imu_peak_z": -1.0}, None)
+        write(path, data)
+
+    monkeypatch.setattr(store, "_fsync_write", other_worker_first)
+    store.write_run(results, rid, {"i": 1}, row, None)  # no error: the run is stored
+    assert raced and store.is_done(results, rid)
+    assert store.load_run_row(results, rid)["imu_peak_z"] == -1.0  # the first stored, kept whole
+    assert [p.name for p in (results / store.RUNS).iterdir()] == [rid]  # no .tmp-* folder left
+    assert store.consolidate(results) == 1

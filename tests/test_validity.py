@@ -54,3 +54,67 @@ def test_the_report_counts_half_step_runs_apart() -> None:
         _counted(default, halved) == "2 runs (and 2 at another physics step, in the numerical validity only)"
     )
     assert _counted(default, halved.iloc[0:0]) == "2 runs"
+
+
+def _drops(imu: dict[str, float], knee: dict[str, float], step: float) -> pd.DataFrame:
+    """1 m and 0.5 m drops, one run per policy each: landing IMU peak (m/s^2) and knee margin (rad)."""
+    return pd.DataFrame(
+        {
+            "robot": "talos",
+            "scenario": "drop",
+            "point": f"drop[initial.height={height:g},physics_dt={step:g}]#s0",
+            "param:initial.height": height,
+            "physics_dt": step,
+            "policy": policy,
+            "pre_impact": "none",
+            "status": "ok",
+            "imu_peak_z_landing": imu[policy],
+            "imu_peak_z": imu[policy],
+            "knee_limit_margin": knee[policy],
+            "torque_demand_ratio_landing": 0.5,
+            "torque_demand_ratio_max": 0.5,
+            "torque_ratio_max": 0.5,
+        }
+        for height in (1.0, 0.5)
+        for policy in imu
+    )
+
+
+def test_claims_at_half_the_step_say_whether_each_verdict_is_robust() -> None:
+    """stiff's IMU peak is the highest at the default step and the lowest at half of it: that claim
+    is not robust; the knee claims hold at both steps: robust. A claim the half-step runs cannot
+    decide (no zero runs) has no verdict there."""
+    from fallbench.report.claims import claims_table
+
+    knee = {"stiff": 0.1, "zero": -0.01}
+    default = _drops({"stiff": 300.0, "zero": 100.0}, knee, DEFAULT_STEP)
+    claims = claims_table(default)
+    halved = _drops({"stiff": 100.0, "zero": 300.0}, knee, DEFAULT_STEP / 2)
+    table = robust_claims(claims, halved)
+    assert table[list(claims.columns)].equals(claims)  # the claims as they were, two columns added
+    by_claim = table.set_index(["scope", "claim"])[["verdict", "verdict at half the step", "robust"]]
+    for scope in ("1 m drop", "all drops (2 points)"):
+        assert by_claim.loc[scope].to_dict("index") == {
+            "stiff has the highest IMU acceleration (landing)": {
+                "verdict": "holds",
+                "verdict at half the step": "does not hold",
+                "robust": "no",
+            },
+            "stiff stays off the knee stop": {
+                "verdict": "holds",
+                "verdict at half the step": "holds",
+                "robust": "yes",
+            },
+            "zero reaches the knee's mechanical stop": {
+                "verdict": "holds",
+                "verdict at half the step": "holds",
+                "robust": "yes",
+            },
+        }
+    stiff_only = robust_claims(claims, halved[halved.policy == "stiff"]).set_index(["scope", "claim"])
+    assert (
+        stiff_only.loc[("1 m drop", "zero reaches the knee's mechanical stop"), "verdict at half the step"]
+        == "-"
+    )
+    assert stiff_only.loc[("1 m drop", "zero reaches the knee's mechanical stop"), "robust"] == "-"
+    assert stiff_only.loc[("1 m drop", "stiff stays off the knee stop"), "robust"] == "yes"
