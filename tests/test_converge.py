@@ -20,7 +20,8 @@ def _point(**fields) -> ScenarioPoint:
 
 def test_ladder_halves_the_step_and_names_it() -> None:
     item = ladder(_point(physics_dt=0.001), 3)
-    assert item.steps == [0.001, 0.0005, 0.00025]
+    assert [p.scenario.physics_dt for p in item.levels] == [0.001, 0.0005, 0.00025]
+    assert item.names == ["1 ms", "0.5 ms", "0.25 ms"]
     assert [p.label for p in item.levels] == [
         "drop[physics_dt=0.001]#s0",
         "drop[physics_dt=0.0005]#s0",

@@ -29,14 +29,14 @@ def test_rest_holds_for_the_hold_time_and_restarts_after_any_motion() -> None:
     watch = _watch(rest={"hold": 0.1})
     times = np.arange(0, 0.4, 0.005)
     # still from 0 to 0.05 s, a joint moves at 0.06 s, still again from 0.065 s on
-    speeds = [_qvel(joint=1.0) if math.isclose(t, 0.06) else _qvel(0.01, 0.05, 0.1) for t in times]
+    speeds = [_qvel(joint=1.0) if math.isclose(t, 0.06) else _qvel(0.09, 0.29, 0.49) for t in times]
     settled_at = next(t for t, qvel in zip(times, speeds) if watch.update(float(t), qvel))
     assert settled_at == pytest.approx(0.165)
     assert watch.time_to_rest == pytest.approx(0.065)
 
 
 @pytest.mark.parametrize(
-    "moving", [_qvel(linear=0.06), _qvel(angular=0.25), _qvel(joint=0.6), _qvel(linear=-0.06)]
+    "moving", [_qvel(linear=0.11), _qvel(angular=0.31), _qvel(joint=0.51), _qvel(linear=-0.11)]
 )
 def test_any_speed_over_its_threshold_is_motion(moving: np.ndarray) -> None:
     watch = _watch(rest={"hold": 0.01})
