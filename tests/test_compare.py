@@ -149,3 +149,16 @@ def test_bad_input_is_one_line_and_exit_2(stores: dict[str, Path], tmp_path: Pat
         assert len(result.stderr.strip().splitlines()) == 1
     missing = _compare(str(tmp_path / "nowhere"), a)
     assert missing.exit_code == 2 and "no results store here" in missing.stderr
+
+
+def test_a_and_b_are_read_over_the_pairs_that_have_both(tmp_path: Path) -> None:
+    """A landing peak that only some runs of A have (a landing the other side never made) is left
+    out of A's and B's values with its pair, so the columns agree with the change beside them."""
+    a, b = _rows("a", changed=False), _rows("b", changed=False)
+    for row in a[:6]:
+        row["imu_peak_z_landing"] = float("nan")
+    table = compare(
+        store.load_metrics(_store(tmp_path / "a", a)), store.load_metrics(_store(tmp_path / "b", b))
+    ).table
+    imu = table[(table.policy == "stiff") & (table.measure == "imu_peak_z_landing")].iloc[0]
+    assert imu.pairs == 7 and imu.change == 0 and imu.A == imu.B

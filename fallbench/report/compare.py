@@ -91,8 +91,9 @@ def _verdict(measure: str, changes: np.ndarray, low: float, high: float) -> str:
 def _row(measure: str, group: pd.DataFrame) -> dict[str, object]:
     values_a = group[f"{measure}_a"].astype(float).to_numpy()
     values_b = group[f"{measure}_b"].astype(float).to_numpy()
+    both = ~np.isnan(values_a) & ~np.isnan(values_b)  # A, B and the change over the same pairs
+    values_a, values_b = values_a[both], values_b[both]
     changes = values_b - values_a
-    changes = changes[~np.isnan(changes)]
     statistic = "mean" if measure in MEAN_OF_CHANGES else "median"
     estimate = bootstrap(changes, statistic)
     summary = np.nanmean if statistic == "mean" else np.nanmedian
