@@ -46,7 +46,7 @@ class Family:
 
     @property
     def table(self) -> pd.DataFrame:
-        return self.ranked[0]
+        return self.ranked.table
 
     @property
     def verdict(self) -> str:
