@@ -138,6 +138,16 @@ def test_forest_plot_numbers_are_paired_changes_against_none_stiff() -> None:
     assert fell.value == pytest.approx(1 / 3) and fell.pairs == 3  # the mean change of the fraction
 
 
+def test_probability_of_improvement_scores_each_pair_over_the_measures() -> None:
+    """none + zero hits the head harder in all 3 pairs (0 each) and falls where none + stiff does
+    not in one (0), as often in two (0.5): pair scores 0.25, 0, 0.25."""
+    changes = paired_changes(_forest_runs()).set_index(["policy", "measure"])
+    improvement = changes.loc[("zero", "improvement")]
+    assert improvement.value == pytest.approx(1 / 6) and improvement.pairs == 3
+    assert (improvement.low, improvement.high) == (0.0, 0.25)
+    assert improvement.unit == "share of pairs"
+
+
 def test_forest_interval_is_the_bootstrap_of_the_differences() -> None:
     runs = _forest_runs()
     runs.loc[runs.run_id == "z1", "contact_force_peak_head"] = 210.0  # changes 10, 10, 20

@@ -227,8 +227,10 @@ def _answer(families: list[Family], robot: str) -> list[str]:
 FOREST_NOTE = (
     "Each row a pre-impact strategy + gain policy, best mean rank first; each panel a damage measure. "
     "Dot: the median of its paired changes against the unprotected fall (none + stiff) of the same point "
-    "and seed (fell: the mean, i.e. the change in the fraction of runs that fell); bar: 95 % bootstrap "
-    "interval; grey line: no change. A bar clear of the line is a change the data support. Marker: "
+    "and seed (fell and counts: the mean, e.g. the change in the fraction of runs that fell); bar: 95 % bootstrap "
+    "interval; grey line: no change. A bar clear of the line is a change the data support. Last panel: "
+    "the probability of improvement, the share of pairs in which the arm does less damage (each pair "
+    "scored 1, 0.5 or 0 per measure, averaged over the measures; grey line at 0.5). Marker: "
     "circle none, square reshape, diamond direction, triangle any other (e.g. a whole-fall controller such "
     "as onnx, policy -); colour: the gain policy; n: pairs."
 )

@@ -3,10 +3,13 @@ against the unprotected fall (`none` + `stiff`) on every damage measure.
 
 For each run of a strategy and policy, its reference is the `none` + `stiff` run of the same robot,
 scenario, point and seed; the change is the run's value minus its reference's, in the measure's
-unit (counts as counts, `fell` as 0/1). Each dot is the median of these paired changes (`fell`: their
-mean, the change in the fraction of runs that fell), each bar its 95 % percentile bootstrap
-interval (`stats.bootstrap`, seeded), over the pairs. Rows are ordered as in the ranking table
-(best mean rank first)."""
+unit (counts as counts, `fell` as 0/1). Each dot is the median of these paired changes (`fell` and
+counts: their mean, e.g. the change in the fraction of runs that fell), each bar its 95 % percentile
+bootstrap interval (`stats.bootstrap`, seeded), over the pairs. The last panel is the probability
+of improvement (rliable's practice): the share of pairs in which the arm does less damage, each
+pair scored by the mean over the measures of 1 (less damage), 0.5 (equal) or 0 (more), with its
+interval; 0.5 = as often better as worse. Rows are ordered as in the ranking table (best mean
+rank first)."""
 
 from __future__ import annotations
 
@@ -16,12 +19,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from fallbench.report import paired
 from fallbench.report.figures import _save
-from fallbench.report.ranking import DAMAGE_MEASURES, REFERENCE, arm_order, measures_for
-from fallbench.report.stats import bootstrap
+from fallbench.report.paired import REFERENCE, Arm
+from fallbench.report.ranking import DAMAGE_MEASURES, arm_order, measures_for
+from fallbench.report.stats import Estimate, bootstrap
 from fallbench.report.style import colour
 
-PAIR_KEYS = ["robot", "scenario", "point", "seed"]
+IMPROVEMENT = "improvement"  # the last panel: probability of improvement (paired.improvement_scores)
+IMPROVEMENT_LABEL = "P(less damage) (share of pairs)"
 STRATEGY_MARKERS = {"none": "o", "reshape": "s", "direction": "D"}
 COLUMNS = ["pre_impact", "policy", "measure", "label", "unit", "value", "low", "high", "pairs", "reference"]
 
@@ -32,46 +38,44 @@ def _unit(label: str) -> str:
     return label[label.rfind("(") + 1 : -1] if label.endswith(")") else "count"
 
 
-def paired_changes(runs: pd.DataFrame, arms: list[tuple[str, str]] | None = None) -> pd.DataFrame:
+def paired_changes(runs: pd.DataFrame, arms: list[Arm] | None = None) -> pd.DataFrame:
     """One row per (strategy, policy) other than the reference and per damage measure: the median
-    (`fell`: mean) of the paired changes and its 95 % interval, the number of pairs, and the
-    reference's median on those pairs; arms in ranking order (best first) unless given."""
+    (`fell` and counts: mean) of the paired changes and its 95 % interval, the number of pairs, and
+    the reference's median on those pairs; then per arm its probability of improvement
+    (`IMPROVEMENT`); arms in ranking order (best first) unless given."""
     ok = runs[runs.status == "ok"]
-    keys = [k for k in PAIR_KEYS if k in ok]
     measures = measures_for(ok)
-    columns = [m.column for m in measures]
-    strategy, policy = REFERENCE
-    reference = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].drop_duplicates(keys)
-    if reference.empty:
+    if paired.arm_runs(ok, REFERENCE).empty:
         return pd.DataFrame(columns=COLUMNS)
-    reference = reference[keys + columns]
     rows = []
     for arm in arms if arms is not None else arm_order(runs):
         if arm == REFERENCE:
             continue
-        mine = ok[(ok.pre_impact == arm[0]) & (ok.policy == arm[1])].drop_duplicates(keys)
-        pairs = mine[keys + columns].merge(reference, on=keys, suffixes=("", ":reference"))
+        pair_rows = paired.pairs(ok, arm, [m.column for m in measures])
         for measure in measures:
-            ours = pairs[measure.column].astype(float).to_numpy()
-            theirs = pairs[f"{measure.column}:reference"].astype(float).to_numpy()
-            change = ours - theirs
-            estimate = bootstrap(change, measure.statistic)
-            paired = theirs[~np.isnan(change)]
-            rows.append(
-                {
-                    "pre_impact": arm[0],
-                    "policy": arm[1],
-                    "measure": measure.column,
-                    "label": measure.label,
-                    "unit": _unit(measure.label),
-                    "value": estimate.value,
-                    "low": estimate.low,
-                    "high": estimate.high,
-                    "pairs": estimate.n,
-                    "reference": float(getattr(np, measure.statistic)(paired)) if len(paired) else np.nan,
-                }
-            )
+            change = paired.change(pair_rows, measure.column)
+            theirs = pair_rows[f"{measure.column}:reference"].astype(float).to_numpy()[~np.isnan(change)]
+            estimate = bootstrap(change, measure.change)
+            reference = float(getattr(np, measure.statistic)(theirs)) if len(theirs) else np.nan
+            rows.append(_row(arm, measure.column, measure.label, estimate, reference))
+        improvement = bootstrap(paired.improvement_scores(pair_rows, measures), "mean")
+        rows.append(_row(arm, IMPROVEMENT, IMPROVEMENT_LABEL, improvement, np.nan))
     return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def _row(arm: Arm, measure: str, label: str, estimate: Estimate, reference: float) -> dict[str, object]:
+    return {
+        "pre_impact": arm[0],
+        "policy": arm[1],
+        "measure": measure,
+        "label": label,
+        "unit": _unit(label),
+        "value": estimate.value,
+        "low": estimate.low,
+        "high": estimate.high,
+        "pairs": estimate.n,
+        "reference": reference,
+    }
 
 
 def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
@@ -93,7 +97,7 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     for ax, measure in zip(axes[0], measures):
         rows = changes[changes.measure == measure].set_index(["pre_impact", "policy"]).reindex(arms)
         first = rows.iloc[0]
-        ax.axvline(0.0, color="grey", linewidth=1.0)
+        ax.axvline(0.5 if measure == IMPROVEMENT else 0.0, color="grey", linewidth=1.0)
         for k, (arm, row) in enumerate(rows.iterrows()):
             if np.isnan(row.value):
                 continue
@@ -108,7 +112,11 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
                 markeredgecolor="black",
                 markeredgewidth=0.6,
             )
-        better = "<- less damage" if lower_is_better.get(measure, True) else "less damage ->"
+        better = (
+            "<- less damage" if lower_is_better.get(measure, measure != IMPROVEMENT) else "less damage ->"
+        )
+        if measure == IMPROVEMENT:
+            ax.set_xlim(-0.05, 1.05)
         reference = f"ref. {first.reference:.3g}" if not np.isnan(first.reference) else ""
         ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}; {reference}", fontsize=8.5)
         ax.set_xlabel(better, fontsize=8)

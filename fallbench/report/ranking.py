@@ -97,7 +97,6 @@ class Ranked:
     measures: list[Measure]
     same: dict[Arm, list[Arm]]  # a row's arm -> the other arms with the same falls
     harm: dict[Arm, list[tuple[str, Estimate]]]  # arm -> (measure label, paired change) clearly worse
-    improvement: dict[Arm, Estimate]  # probability of improvement over none + stiff
 
 
 def ranked(runs: pd.DataFrame) -> Ranked:
@@ -109,9 +108,8 @@ def ranked(runs: pd.DataFrame) -> Ranked:
     table = estimates(runs, [g[0] for g in groups])
     same = {g[0]: g[1:] for g in groups}
     harm = {arm: _harm(ok, arm, found) for arm in table}
-    improvement = {arm: paired.probability_of_improvement(ok, arm, found) for arm in table}
     if not table:
-        return Ranked(pd.DataFrame(), table, found, same, harm, improvement)
+        return Ranked(pd.DataFrame(), table, found, same, harm)
     values = pd.DataFrame({arm: {m.column: e[m.column].value for m in found} for arm, e in table.items()}).T
     ranks = pd.DataFrame({m.column: values[m.column].rank(ascending=m.lower_is_better) for m in found})
     rows = []
@@ -128,7 +126,7 @@ def ranked(runs: pd.DataFrame) -> Ranked:
             row["same falls as"] = "; ".join(_same_note(ok, arm, other) for other in same[arm])
         rows.append(row)
     ranking = pd.DataFrame(rows).sort_values("mean rank", kind="stable").reset_index(drop=True)
-    return Ranked(ranking, table, found, same, harm, improvement)
+    return Ranked(ranking, table, found, same, harm)
 
 
 def _harm(ok: pd.DataFrame, arm: Arm, found: list[Measure]) -> list[tuple[str, Estimate]]:
