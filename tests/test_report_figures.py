@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from fallbench.cli import app
 from fallbench.report import drawing
 from fallbench.report.filmstrips import damage, family_picks, picks
-from fallbench.report.forest import paired_changes
+from fallbench.report.forest import forest_table, paired_changes, pools
 from fallbench.results import store
 
 
@@ -146,6 +146,40 @@ def test_probability_of_improvement_scores_each_pair_over_the_measures() -> None
     assert improvement.value == pytest.approx(1 / 6) and improvement.pairs == 3
     assert (improvement.low, improvement.high) == (0.0, 0.25)
     assert improvement.unit == "share of pairs"
+
+
+def test_the_change_table_is_the_forest_and_counts_pairs_whose_reference_is_0() -> None:
+    """Head forces of none + stiff 0 in 4 of 6 pairs: every pair counts (a change is a difference),
+    the table says how many references are 0, and its numbers are the forest's."""
+    rows = []
+    for k, (reference, ours) in enumerate([(0, 0), (0, 0), (0, 0), (0, 0), (100, 50), (200, 100)]):
+        point = f"lab[x={k}]#s0"
+        rows.append(_row(f"s{k}", "lab", point, 0, "none", "stiff", contact_force_peak_head=float(reference)))
+        rows.append(_row(f"z{k}", "lab", point, 0, "none", "zero", contact_force_peak_head=float(ours)))
+    changes = paired_changes(pd.DataFrame(rows))
+    head = changes.set_index("measure").loc["contact_force_peak_head"]
+    assert (head.value, head.pairs, head.reference, head.zero_references) == (0.0, 6, 0.0, 4)
+    table = forest_table(changes).set_index("arm")
+    assert table.loc["none + zero", "pairs"] == 6
+    assert table.loc["none + zero", "head peak force (N)"] == f"+0 [{head.low:+.3g}, +0] (ref. 0, 0 in 4/6)"
+
+
+def test_pooled_forests_pool_only_families_where_the_same_arms_ran() -> None:
+    """`reshape` ran in one family only: it gets its own pool, and the other pool's reference is
+    its own pairs' (not the first row's)."""
+    runs = _forest_runs().assign(scenario="a")
+    other = _forest_runs().assign(
+        scenario="b", contact_force_peak_head=lambda r: r.contact_force_peak_head * 10
+    )
+    other = other.assign(run_id=other.run_id + "b")
+    reshaped = other[other.policy == "zero"].assign(
+        pre_impact="reshape", run_id=lambda r: r.run_id + "r", contact_force_peak_head=1.0
+    )
+    found = pools(pd.concat([runs, other, reshaped]))
+    assert [pool.families for pool in found] == [["b"], ["a"]]
+    assert sorted(set(found[0].changes.name)) == ["none + zero", "reshape + zero"]
+    head = found[1].changes.set_index("measure").loc["contact_force_peak_head"]
+    assert head.reference == 200.0 and head.pairs == 3
 
 
 def test_forest_interval_is_the_bootstrap_of_the_differences() -> None:

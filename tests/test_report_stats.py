@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fallbench.report.ranking import ranking_table, relative_changes, verdict
+from fallbench.report.ranking import ranking_table, verdict
 from fallbench.report.stats import bootstrap, natural_sorted
 
 
@@ -233,16 +233,6 @@ def test_arms_with_the_same_falls_pair_by_pair_are_one_row() -> None:
     assert verdict(runs).startswith("least damage: none + zero = direction + zero (mean rank 1 of 2")
 
 
-def test_changes_against_the_unprotected_fall_are_paired_by_point() -> None:
-    runs = _family()
-    changes = relative_changes(runs).set_index(["pre_impact", "policy"])
-    assert ("none", "stiff") not in changes.index
-    assert changes.loc[("reshape", "zero"), "paired runs"] == 20
-    assert changes.loc[("reshape", "zero"), "head peak force (%)"].startswith("-50 [")
-    assert changes.loc[("none", "zero"), "head peak force (%)"].startswith("0 [")
-    assert changes.loc[("reshape", "zero"), "vulnerable parts hit (difference)"] == "-1 [-1, -1]"
-
-
 @pytest.mark.slow
 def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
     """Overview answers first, per robot and family, links its figures; one page per family;
@@ -293,7 +283,8 @@ def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
     page = (out / "index.html").read_text()
     assert "data:image" not in page and len(page) < 200_000
     assert page.index("What hurts the robot least") < page.index("Claims of the papers")
-    assert page.count("least damage:") == 4 and "Robot g1" in page and "Robot talos" in page
+    assert page.count("least damage:") + page.count("a tie:") == 4  # random forces: ties happen
+    assert "Robot g1" in page and "Robot talos" in page
     assert "head peak force (N)" in page and "[" in page
     family = out / "family_talos_alpha.html"
     assert family in paths and (out / "family_g1_beta.html").exists()

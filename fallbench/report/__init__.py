@@ -16,7 +16,7 @@ from fallbench.report.direction import direction_report, top_down_figure
 from fallbench.report.drawing import Drawn, Figure, draw
 from fallbench.report.figures import draw_paper_figures, paper_points
 from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
-from fallbench.report.forest import forest_figure, forest_markdown, paired_changes
+from fallbench.report.forest import Pool, forest_figure, forest_markdown, forest_table, paired_changes, pools
 from fallbench.report.grouping import newest_runs, with_robot
 from fallbench.report.preimpact import (
     draw_reshaped_falls,
@@ -41,7 +41,6 @@ class Family:
     picks: list[Pick]  # the falls shown as filmstrips (`--filmstrips`)
     changes: pd.DataFrame  # paired changes against none + stiff (the forest plot's numbers)
     arm_picks: list[Pick]  # the typical and worst fall of every (strategy, policy)
-    relative: pd.DataFrame | None = None  # ranking.relative_changes, set by `_tables`
     medians: pd.DataFrame | None = None  # sweeps.median_table, set by `_tables`
 
     @property
@@ -70,7 +69,7 @@ def _families(per_robot: dict[str, pd.DataFrame], filmstrips: str = "family") ->
             arms = ranking.arm_order(group, done)
             every_arm = family_picks(robot, family, group, arms, "all")
             shown = every_arm if filmstrips == "all" else family_picks(robot, family, group, arms, filmstrips)
-            found.append(Family(robot, family, group, done, shown, paired_changes(group, arms), every_arm))
+            found.append(Family(robot, family, group, done, shown, paired_changes(group, done), every_arm))
     return found
 
 
@@ -164,15 +163,16 @@ def _slim(rows: pd.DataFrame) -> pd.DataFrame:
     return rows[[c for c in ("run_id", "robot", "point", "policy", "impact_time") if c in rows]]
 
 
-def _forest_jobs(per_robot: dict[str, pd.DataFrame], families: list[Family], out: Path) -> list[Figure]:
-    """The overview's forest plot per robot (all its families' pairs) and one per family."""
+def _forest_jobs(pooled: dict[str, list[Pool]], families: list[Family], out: Path) -> list[Figure]:
+    """The overview's forest plots per robot (one per pool of families with the same arms) and one
+    per family."""
     jobs = []
-    for robot, robot_runs in per_robot.items():
-        changes = paired_changes(robot_runs)
-        title = f"{robot} all families: change against none + stiff on the same point and seed".strip()
-        jobs.append(
-            Figure(f"forest:{robot}", forest_figure, (changes, title, out, f"forest_{robot or 'all'}"))
-        )
+    for robot, robot_pools in pooled.items():
+        total = sum(f.robot == robot for f in families)
+        for k, pool in enumerate(robot_pools):
+            title = f"{pool.title(robot, total)}: change against none + stiff on the same point and seed"
+            stem = f"forest_{robot or 'all'}" + (f"_{k + 1}" if k else "")
+            jobs.append(Figure(f"forest:{robot}:{k}", forest_figure, (pool.changes, title, out, stem)))
     for family in families:
         title = f"{family.title}: change against none + stiff on the same point and seed"
         jobs.append(
@@ -271,8 +271,9 @@ def _family_page(
         *_forest(drawn.paths.get(f"forest:{family.stem}", []), out),
         "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
         pages.table(family.table),
-        "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
-        pages.table(family.relative),
+        "<h2>Change against the unprotected fall (none + stiff) of the same point and seed: the forest "
+        "plot's numbers</h2>",
+        pages.table(forest_table(family.changes)),
         "<h2>Medians per strategy and policy</h2>",
         pages.table(family.medians.round(3), index=True),
     ]
@@ -327,7 +328,7 @@ class _Sections:
     verdicts: pd.DataFrame
     step_changes: pd.DataFrame  # headline metrics' change when the physics step is halved
     failed: pd.DataFrame
-    robot_changes: dict[str, pd.DataFrame]  # robot -> change against none + stiff, all its families
+    pooled: dict[str, list[Pool]]  # robot -> its families pooled by the arms that ran in them
     set_aside: int = 0  # older duplicates of a fall left out (grouping.newest_runs)
 
     @property
@@ -339,7 +340,9 @@ class _Sections:
         return [p for jobs in self.paper.values() for job in jobs for p in self.drawn.paths.get(job.name, [])]
 
     def forest(self, robot: str) -> list[Path]:
-        return self.drawn.paths.get(f"forest:{robot}", [])
+        return [
+            p for k in range(len(self.pooled[robot])) for p in self.drawn.paths.get(f"forest:{robot}:{k}", [])
+        ]
 
     @property
     def strip_note(self) -> str:
@@ -359,7 +362,8 @@ def _sections(
     chosen = [p for f in families for p in f.picks]
     # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
     # (300 MB), and the renderer's libraries would otherwise count as a leak
-    jobs = filmstrip_figures(chosen, results, out) + _forest_jobs(per_robot, families, out)
+    pooled = {robot: pools(robot_runs) for robot, robot_runs in per_robot.items()}
+    jobs = filmstrip_figures(chosen, results, out) + _forest_jobs(pooled, families, out)
     jobs += [job for family_jobs in paper.values() for job in family_jobs]
     jobs += _summary_figure_jobs(runs, out) + _direction_job(runs, results, out)
     with ThreadPoolExecutor(max_workers=1) as waiting:
@@ -368,7 +372,7 @@ def _sections(
         pending = waiting.submit(draw, jobs, results, out, jobs=options.jobs, vector=options.svg)
         if options.jobs <= 1:
             pending.result()
-        tables = _tables(runs, halved, per_robot, families)
+        tables = _tables(runs, halved, families)
         drawn = pending.result()
     options.drawn, options.cached = drawn.drawn, drawn.cached
 
@@ -385,18 +389,17 @@ def _sections(
         pre_tables=tables.pop("pre_tables") | direction_tables,
         sensitivity_paths=paths("sensitivity:"),
         failed=runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]],
+        pooled=pooled,
         set_aside=options.set_aside,
         **tables,
     )
 
 
-def _tables(
-    runs: pd.DataFrame, halved: pd.DataFrame, per_robot: dict[str, pd.DataFrame], families: list[Family]
-) -> dict:
+def _tables(runs: pd.DataFrame, halved: pd.DataFrame, families: list[Family]) -> dict:
     """Every table of the report that reads metric rows only (computed while the figures are drawn)."""
     claims = robust_claims(claims_table(runs), halved)
     for family in families:  # computed once, here, for their pages
-        family.relative, family.medians = ranking.relative_changes(family.runs), median_table(family.runs)
+        family.medians = median_table(family.runs)
     return {
         "sensitivity": {
             sweep.title: sensitivity_table(swept, sweep)
@@ -409,9 +412,6 @@ def _tables(
         "claims": claims,
         "verdicts": verdict_matrix(claims),
         "step_changes": step_changes(runs, halved) if len(halved) else pd.DataFrame(),
-        "robot_changes": {
-            robot: ranking.relative_changes(robot_runs) for robot, robot_runs in per_robot.items()
-        },
     }
 
 
@@ -452,7 +452,8 @@ def _index_answer(
     robots = list(dict.fromkeys(f.robot for f in sections.families))
     for robot in robots:
         body += [
-            f"<h3>Change against the unprotected fall, every family {html.escape(robot)}</h3>",
+            f"<h3>Change against the unprotected fall, {html.escape(robot)}: families pooled where the "
+            "same arms ran</h3>",
             *_forest(sections.forest(robot), out),
         ]
     body.append(
@@ -484,11 +485,13 @@ def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Se
             "(the claims table's last columns).</p>",
             pages.table(sections.step_changes),
         ]
-    for robot, changes in sections.robot_changes.items():
-        body += [
-            f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
-            pages.table(changes),
-        ]
+    for robot, robot_pools in sections.pooled.items():
+        total = sum(f.robot == robot for f in sections.families)
+        for pool in robot_pools:
+            body += [
+                f"<h2>Change against the unprotected fall (none + stiff): {html.escape(pool.title(robot, total))}</h2>",
+                pages.table(forest_table(pool.changes)),
+            ]
     body.append("<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>")
     for title, frame in sections.pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", pages.table(frame)]

@@ -13,6 +13,7 @@ rank first)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -21,15 +22,18 @@ import pandas as pd
 
 from fallbench.report import paired
 from fallbench.report.figures import _save
-from fallbench.report.paired import REFERENCE, Arm
-from fallbench.report.ranking import DAMAGE_MEASURES, arm_order, measures_for
-from fallbench.report.stats import Estimate, bootstrap
+from fallbench.report.paired import REFERENCE
+from fallbench.report.ranking import DAMAGE_MEASURES, Ranked, arm_order, measures_for, ranked, row_name
+from fallbench.report.stats import Estimate, bootstrap, natural_sorted
 from fallbench.report.style import colour
 
 IMPROVEMENT = "improvement"  # the last panel: probability of improvement (paired.improvement_scores)
 IMPROVEMENT_LABEL = "P(less damage) (share of pairs)"
 STRATEGY_MARKERS = {"none": "o", "reshape": "s", "direction": "D"}
-COLUMNS = ["pre_impact", "policy", "measure", "label", "unit", "value", "low", "high", "pairs", "reference"]
+COLUMNS = [
+    *("pre_impact", "policy", "name", "measure", "label", "unit"),
+    *("value", "low", "high", "pairs", "reference", "zero_references"),
+]
 
 
 def _unit(label: str) -> str:
@@ -38,35 +42,36 @@ def _unit(label: str) -> str:
     return label[label.rfind("(") + 1 : -1] if label.endswith(")") else "count"
 
 
-def paired_changes(runs: pd.DataFrame, arms: list[Arm] | None = None) -> pd.DataFrame:
-    """One row per (strategy, policy) other than the reference and per damage measure: the median
-    (`fell` and counts: mean) of the paired changes and its 95 % interval, the number of pairs, and
-    the reference's median on those pairs; then per arm its probability of improvement
-    (`IMPROVEMENT`); arms in ranking order (best first) unless given."""
+def paired_changes(runs: pd.DataFrame, done: Ranked | None = None) -> pd.DataFrame:
+    """One row per ranking row other than the reference and per damage measure: the median
+    (`fell` and counts: mean) of the paired changes and its 95 % interval, the number of pairs,
+    the reference's median on this row's own pairs and how many of them are 0; then per row its
+    probability of improvement (`IMPROVEMENT`); best mean rank first."""
     ok = runs[runs.status == "ok"]
     measures = measures_for(ok)
     if paired.arm_runs(ok, REFERENCE).empty:
         return pd.DataFrame(columns=COLUMNS)
+    done = done or ranked(runs)
     rows = []
-    for arm in arms if arms is not None else arm_order(runs):
+    for arm in arm_order(runs, done):
         if arm == REFERENCE:
             continue
         pair_rows = paired.pairs(ok, arm, [m.column for m in measures])
+        base = {"pre_impact": arm[0], "policy": arm[1], "name": row_name(done, arm)}
         for measure in measures:
             change = paired.change(pair_rows, measure.column)
             theirs = pair_rows[f"{measure.column}:reference"].astype(float).to_numpy()[~np.isnan(change)]
             estimate = bootstrap(change, measure.change)
             reference = float(getattr(np, measure.statistic)(theirs)) if len(theirs) else np.nan
-            rows.append(_row(arm, measure.column, measure.label, estimate, reference))
+            row = _row(measure.column, measure.label, estimate, reference)
+            rows.append(base | row | {"zero_references": int((theirs == 0).sum())})
         improvement = bootstrap(paired.improvement_scores(pair_rows, measures), "mean")
-        rows.append(_row(arm, IMPROVEMENT, IMPROVEMENT_LABEL, improvement, np.nan))
+        rows.append(base | _row(IMPROVEMENT, IMPROVEMENT_LABEL, improvement, np.nan))
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
-def _row(arm: Arm, measure: str, label: str, estimate: Estimate, reference: float) -> dict[str, object]:
+def _row(measure: str, label: str, estimate: Estimate, reference: float) -> dict[str, object]:
     return {
-        "pre_impact": arm[0],
-        "policy": arm[1],
         "measure": measure,
         "label": label,
         "unit": _unit(label),
@@ -75,6 +80,7 @@ def _row(arm: Arm, measure: str, label: str, estimate: Estimate, reference: floa
         "high": estimate.high,
         "pairs": estimate.n,
         "reference": reference,
+        "zero_references": 0,
     }
 
 
@@ -97,6 +103,7 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     for ax, measure in zip(axes[0], measures):
         rows = changes[changes.measure == measure].set_index(["pre_impact", "policy"]).reindex(arms)
         first = rows.iloc[0]
+        references = rows.reference.dropna().unique()
         ax.axvline(0.5 if measure == IMPROVEMENT else 0.0, color="grey", linewidth=1.0)
         for k, (arm, row) in enumerate(rows.iterrows()):
             if np.isnan(row.value):
@@ -117,8 +124,11 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
         )
         if measure == IMPROVEMENT:
             ax.set_xlim(-0.05, 1.05)
-        reference = f"ref. {first.reference:.3g}" if not np.isnan(first.reference) else ""
-        ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}; {reference}", fontsize=8.5)
+        # the reference's median on each row's own pairs: one value in the title when they agree
+        reference = {0: "", 1: f"; ref. {references[0]:.3g}" if len(references) else ""}.get(
+            len(references), "; ref. per row: table"
+        )
+        ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}{reference}", fontsize=8.5)
         ax.set_xlabel(better, fontsize=8)
         ax.tick_params(labelsize=7.5)
         ax.locator_params(axis="x", nbins=4)  # wide numbers (forces in N) do not run into each other
@@ -126,7 +136,8 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
             ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)
         ax.grid(alpha=0.3, axis="x")
     pairs = changes.groupby(["pre_impact", "policy"], sort=False).pairs.max()
-    labels = [f"{s} + {p} (n={int(pairs[(s, p)])})" for s, p in arms]
+    names = changes.drop_duplicates(["pre_impact", "policy"]).set_index(["pre_impact", "policy"]).name
+    labels = [f"{names[arm]} (n={int(pairs[arm])})" for arm in arms]
     axes[0, 0].set_yticks(y, labels, fontsize=9)
     axes[0, 0].set_ylim(-0.7, len(arms) - 0.3)
     fig.suptitle(title, fontsize=10.5)
@@ -149,23 +160,60 @@ def _margins(fig, label_inches: float) -> dict[str, float]:
     }
 
 
-def forest_markdown(changes: pd.DataFrame) -> str:
-    """The forest plot's numbers as a Markdown table: one row per (strategy, policy), best first."""
+def forest_table(changes: pd.DataFrame) -> pd.DataFrame:
+    """The forest plot's numbers, one row per ranking row (best first): pairs, then per measure the
+    change [95 % CI] and the reference's median on the row's own pairs, with how many of those
+    pairs have a reference of 0 (a change is a difference, so they count like any other pair)."""
     if changes.empty:
-        return ""
-    cells = changes.assign(
-        cell=[
-            "n/a" if np.isnan(v) else (f"{v:+.3g}" if np.isnan(lo) else f"{v:+.3g} [{lo:+.3g}, {hi:+.3g}]")
-            for v, lo, hi in zip(changes.value, changes.low, changes.high)
-        ]
-    )
-    table = cells.pivot_table(
-        index=["pre_impact", "policy"], columns="label", values="cell", aggfunc="first", sort=False
-    )
-    table = table[list(dict.fromkeys(changes.label))]
-    return table.reset_index().to_markdown(index=False)
+        return pd.DataFrame()
+    rows = []
+    for name, arm in changes.groupby("name", sort=False):
+        row: dict[str, object] = {"arm": name, "pairs": int(arm.pairs.max())}
+        for change in arm.itertuples():
+            row[change.label] = _cell(change)
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
-def draw_forest(runs: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
-    """Compute the paired changes of `runs` and draw them (a `drawing.Figure` job)."""
-    return forest_figure(paired_changes(runs), title, out, stem)
+def _cell(change) -> str:
+    if np.isnan(change.value):
+        return "n/a"
+    cell = f"{change.value:+.3g}"
+    if not np.isnan(change.low):
+        cell += f" [{change.low:+.3g}, {change.high:+.3g}]"
+    if np.isnan(change.reference):
+        return cell
+    zeros = f", 0 in {change.zero_references}/{change.pairs}" if change.zero_references else ""
+    return f"{cell} (ref. {change.reference:.3g}{zeros})"
+
+
+def forest_markdown(changes: pd.DataFrame) -> str:
+    """`forest_table` in Markdown."""
+    table = forest_table(changes)
+    return table.to_markdown(index=False) if len(table) else ""
+
+
+@dataclass(frozen=True)
+class Pool:
+    """Families of one robot in which the same arms ran, and their pooled paired changes."""
+
+    families: list[str]
+    changes: pd.DataFrame
+
+    def title(self, robot: str, total: int) -> str:
+        shown = ", ".join(self.families) if len(self.families) <= 6 else f"{len(self.families)} families"
+        return f"{robot} {len(self.families)} of {total} families with the same arms ({shown})".strip()
+
+
+def pools(robot_runs: pd.DataFrame) -> list[Pool]:
+    """The robot's families grouped by the set of arms that ran in them, the most runs first: a
+    pooled forest row then covers the same families as every other row."""
+    ok = robot_runs[robot_runs.status == "ok"]
+    arm_sets: dict[frozenset, list[str]] = {}
+    for family, runs in ok.groupby("scenario"):
+        arm_sets.setdefault(frozenset(zip(runs.pre_impact, runs.policy)), []).append(str(family))
+    groups = sorted(arm_sets.values(), key=lambda fs: -int(ok.scenario.isin(fs).sum()))
+    return [
+        Pool(natural_sorted(families), paired_changes(robot_runs[robot_runs.scenario.isin(families)]))
+        for families in groups
+    ]

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from fallbench.report import paired
-from fallbench.report.paired import REFERENCE, Arm
+from fallbench.report.paired import Arm
 from fallbench.report.stats import Estimate, bootstrap, natural_key
 from fallbench.report.style import ordered
 
@@ -32,14 +32,6 @@ DAMAGE_MEASURES = (
     Measure("fell", "fell (fraction)", statistic="mean", change="mean"),
 )
 FALLBACKS = {"imu_peak_z_landing": ("imu_peak_z", "IMU z peak, whole run (m/s²)")}
-RELATIVE_MEASURES = {  # column -> label; changes in % of the reference run
-    "contact_force_peak_bw": "peak contact force",
-    "contact_force_peak_head_bw": "head peak force",
-    "contact_force_peak_torso_bw": "torso peak force",
-    "torque_peak_legs": "leg torque peak",
-    "torque_peak_arms": "arm torque peak",
-}
-COUNT_MEASURES = {"vulnerable_hits": "vulnerable parts hit"}  # changes as differences of counts
 
 
 def measures_for(runs: pd.DataFrame) -> list[Measure]:
@@ -231,41 +223,3 @@ def _against_runner_up(done: Ranked, best: Arm, runner_up: Arm) -> str:
     else:
         line = f"; not clearly better than the runner-up ({other}) on any measure: no clear winner"
     return line + (f"; clearly more on {', '.join(worse)}" if worse else "")
-
-
-def relative_changes(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per (strategy, policy): the change of each damage measure against the `none` + `stiff` run
-    of the same point and seed (median [95 % CI] over points and seeds): peak forces and torques
-    in % of the reference, counts as differences."""
-    ok = runs[runs.status == "ok"]
-    columns = [c for c in (*RELATIVE_MEASURES, *COUNT_MEASURES) if c in ok]
-    key = ["robot", "point"] if "robot" in ok else ["point"]
-    reference = ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])][key + columns]
-    if reference.empty or not columns:
-        return pd.DataFrame()
-    reference = reference.drop_duplicates(key)
-    rows = []
-    for strategy, policy in _arms(ok):
-        if (strategy, policy) == REFERENCE:
-            continue
-        # each run of the arm with its reference run's values (NaN where the point has none)
-        joined = ok[(ok.pre_impact == strategy) & (ok.policy == policy)][key + columns].merge(
-            reference, on=key, how="left", suffixes=("", ":reference")
-        )
-        arm = joined[columns].astype(float)
-        ref = joined[[f"{c}:reference" for c in columns]].astype(float).set_axis(columns, axis=1)
-        row: dict[str, object] = {
-            "pre_impact": strategy,
-            "policy": policy,
-            "paired runs": int(ref[columns[0]].notna().sum()),
-        }
-        for column in columns:
-            if column in COUNT_MEASURES:
-                row[f"{COUNT_MEASURES[column]} (difference)"] = bootstrap(
-                    arm[column] - ref[column], "mean"
-                ).format(2)
-            else:
-                change = 100 * (arm[column] - ref[column]) / ref[column].where(ref[column] > 0)
-                row[f"{RELATIVE_MEASURES[column]} (%)"] = bootstrap(change).format(2)
-        rows.append(row)
-    return pd.DataFrame(rows)
