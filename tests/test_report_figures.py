@@ -15,7 +15,9 @@ from fallbench.cli import app
 from fallbench.report import drawing
 from fallbench.report.filmstrips import damage, family_picks, picks
 from fallbench.report.forest import forest_table, paired_changes, pools
+from fallbench.report.preimpact import TIMELINE_GROUPS, draw_reshaped_falls
 from fallbench.results import store
+from fallbench.robots import get_robot
 
 
 def _row(run_id: str, family: str, point: str, seed: int, strategy: str, policy: str, **metrics) -> dict:
@@ -349,3 +351,25 @@ def test_envelope_keeps_every_peak_of_a_long_series() -> None:
     assert shown_y.max() == 250.0 and shown_t[shown_y.argmax()] == t[3001]
     assert shown_y.min() == -80.0 and shown_t[shown_y.argmin()] == t[17]
     assert envelope(t[:100], y[:100], buckets=800)[1].tolist() == y[:100].tolist()  # short: unchanged
+
+
+def test_a_reshaped_fall_without_fall_time_is_skipped_with_a_note(tmp_path: Path) -> None:
+    """A reshape run that fell with no fall_time (no detector saw it) stopped the whole report with
+    "Axis limits cannot be NaN or Inf": now its figure is skipped and the note says why."""
+    results = tmp_path / "results"
+    columns = [f"q:{joint}" for joint in get_robot("talos").trajectory_joints]
+    columns += [f"force:{group}" for group in TIMELINE_GROUPS]
+    series = pd.DataFrame({"t": np.linspace(0.0, 1.0, 11)} | {c: np.zeros(11) for c in columns})
+    for strategy in ("none", "reshape"):
+        row = _row(strategy, "push", "push#s0", 0, strategy, "stiff", fell=True, fall_time=np.nan)
+        store.write_run(results, strategy, {"point": "push#s0"}, row, series)
+    store.consolidate(results)
+    rows = store.load_metrics(results)
+    figure = drawing.Figure(
+        "reshape:talos:push#s0:stiff", draw_reshaped_falls, (rows, results, tmp_path, "push#s0", "stiff")
+    )
+    drawn = drawing.draw([figure], results, tmp_path)
+    assert drawn.paths[figure.name] == []
+    assert (
+        drawn.notes[figure.name] == "reshaped fall push#s0, stiff: skipped, the reshape run has no fall_time"
+    )

@@ -299,6 +299,9 @@ def _family_page(
             body.append(
                 f"<details><summary>{html.escape(job.name.split(':', 2)[-1])}</summary>{images}</details>"
             )
+    body += [
+        f"<p><em>{html.escape(drawn.notes[job.name])}</em></p>" for job in paper if job.name in drawn.notes
+    ]
     return pages.write(out / pages.family_file(family.robot, family.name), family.title, body)
 
 
