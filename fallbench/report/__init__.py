@@ -4,6 +4,7 @@ the papers' figures and claims; index.html, one page per family, and summary.md.
 from __future__ import annotations
 
 import html
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +18,7 @@ from fallbench.report.drawing import Drawn, Figure, draw
 from fallbench.report.figures import draw_paper_figures, paper_points
 from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
 from fallbench.report.forest import Pool, forest_figure, forest_markdown, forest_table, paired_changes, pools
-from fallbench.report.grouping import newest_runs, with_robot
+from fallbench.report.grouping import newest_runs, settled_runs, unsettled_note, with_robot
 from fallbench.report.preimpact import (
     draw_reshaped_falls,
     first_impact_figure,
@@ -41,6 +42,7 @@ class Family:
     picks: list[Pick]  # the falls shown as filmstrips (`--filmstrips`)
     changes: pd.DataFrame  # paired changes against none + stiff (the forest plot's numbers)
     arm_picks: list[Pick]  # the typical and worst fall of every (strategy, policy)
+    unsettled: int = 0  # runs that did not settle by their cap, left out of `runs`
     medians: pd.DataFrame | None = None  # sweeps.median_table, set by `_tables`
 
     @property
@@ -60,7 +62,10 @@ class Family:
         return pages.family_file(self.robot, self.name).removesuffix(".html")
 
 
-def _families(per_robot: dict[str, pd.DataFrame], filmstrips: str = "family") -> list[Family]:
+def _families(
+    per_robot: dict[str, pd.DataFrame], filmstrips: str = "family", unsettled: pd.DataFrame | None = None
+) -> list[Family]:
+    left_out = Counter(zip(unsettled.robot, unsettled.scenario)) if unsettled is not None else Counter()
     found = []
     for robot, robot_runs in per_robot.items():
         for family in ranking.families(robot_runs):
@@ -69,7 +74,10 @@ def _families(per_robot: dict[str, pd.DataFrame], filmstrips: str = "family") ->
             arms = ranking.arm_order(group, done)
             every_arm = family_picks(robot, family, group, arms, "all")
             shown = every_arm if filmstrips == "all" else family_picks(robot, family, group, arms, filmstrips)
-            found.append(Family(robot, family, group, done, shown, paired_changes(group, done), every_arm))
+            changes = paired_changes(group, done)
+            found.append(
+                Family(robot, family, group, done, shown, changes, every_arm, left_out[(robot, family)])
+            )
     return found
 
 
@@ -265,7 +273,8 @@ def _family_page(
     body = [
         f"<p>{pages.link('index.html', 'overview')}</p>",
         f"<h1>{html.escape(family.title)}</h1>",
-        f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds).</p>",
+        f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds)"
+        f"{'; ' + unsettled_note(family.unsettled) if family.unsettled else ''}.</p>",
         f"<p class='verdict'>{html.escape(family.verdict)}</p>",
         "<h2>Change against the unprotected fall (none + stiff), per damage measure</h2>",
         *_forest(drawn.paths.get(f"forest:{family.stem}", []), out),
@@ -333,6 +342,7 @@ class _Sections:
     failed: pd.DataFrame
     pooled: dict[str, list[Pool]]  # robot -> its families pooled by the arms that ran in them
     set_aside: int = 0  # older duplicates of a fall left out (grouping.newest_runs)
+    unsettled: int = 0  # runs that did not settle by their cap, left out (grouping.settled_runs)
 
     @property
     def strip_paths(self) -> list[Path]:
@@ -360,7 +370,7 @@ def _sections(
     every table of the report; `halved` are the runs at another physics step, for the
     numerical-validity section only."""
     per_robot = ranking.robots(runs)
-    families = _families(per_robot, options.filmstrips)
+    families = _families(per_robot, options.filmstrips, options.unsettled)
     paper = _paper_jobs(families, results, out, options.paper_figures)
     chosen = [p for f in families for p in f.picks]
     # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
@@ -394,6 +404,7 @@ def _sections(
         failed=runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]],
         pooled=pooled,
         set_aside=options.set_aside,
+        unsettled=len(options.unsettled) if options.unsettled is not None else 0,
         **tables,
     )
 
@@ -426,7 +437,7 @@ def _family_pages(out: Path, sections: _Sections) -> list[Path]:
     ]
 
 
-def _counted(runs: pd.DataFrame, halved: pd.DataFrame, set_aside: int = 0) -> str:
+def _counted(runs: pd.DataFrame, halved: pd.DataFrame, set_aside: int = 0, unsettled: int = 0) -> str:
     """ "N runs", the runs at another physics step that only the numerical validity reads, and the
     older runs of a fall stored again that the report leaves out."""
     other = (
@@ -438,7 +449,8 @@ def _counted(runs: pd.DataFrame, halved: pd.DataFrame, set_aside: int = 0) -> st
         if set_aside
         else ""
     )
-    return f"{len(runs)} runs{other}{older}"
+    resting = f"; {unsettled_note(unsettled)}" if unsettled else ""
+    return f"{len(runs)} runs{other}{older}{resting}"
 
 
 def _index_answer(
@@ -447,7 +459,7 @@ def _index_answer(
     """The overview's opening: what was run, the forest plot per robot, then per robot the ranking
     of every family."""
     body = [
-        f"<h1>fallbench report</h1><p>{_counted(runs, halved, sections.set_aside)} from <code>{html.escape(str(results))}</code>; "
+        f"<h1>fallbench report</h1><p>{_counted(runs, halved, sections.set_aside, sections.unsettled)} from <code>{html.escape(str(results))}</code>; "
         f"{len(sections.failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
         "runs of a family: its sweep points and seeds.</p>",
         "<h2>What hurts the robot least</h2>",
@@ -533,7 +545,7 @@ def _summary_answer(
     summary = [
         "# fallbench report",
         "",
-        f"{_counted(runs, halved, sections.set_aside)} from `{results}`; {len(sections.failed)} failed or diverged.",
+        f"{_counted(runs, halved, sections.set_aside, sections.unsettled)} from `{results}`; {len(sections.failed)} failed or diverged.",
         "",
         "## What hurts the robot least",
         "",
@@ -624,6 +636,7 @@ class Options:
     drawn: int = 0
     cached: int = 0
     set_aside: int = 0  # older runs of a fall stored again (grouping.newest_runs), left out
+    unsettled: pd.DataFrame | None = None  # runs that did not settle by their cap (grouping.settled_runs)
 
 
 def build_report(
@@ -638,6 +651,7 @@ def build_report(
     if runs.empty:
         raise FileNotFoundError(f"{results}: the results store has no runs")
     runs, options.set_aside = newest_runs(with_robot(runs), results)  # one run per fall, the newest
+    runs, options.unsettled = settled_runs(runs)
     runs, halved = split_steps(runs)
     out.mkdir(parents=True, exist_ok=True)
     sections = _sections(runs, halved, results, out, options)
