@@ -290,4 +290,13 @@ def test_report_pages_from_a_small_synthetic_store(tmp_path) -> None:
     assert family in paths and (out / "family_g1_beta.html").exists()
     text = family.read_text()
     assert "Change against the unprotected fall" in text and 'src="sweep_alpha_x.png"' in text
+    assert "sweep_alpha_x_g1.png" not in text  # the other robot's sweep figure: on its own page
+    assert "002 (Samy, Bouyarmane &amp; Kheddar 2017)" in page
     assert not list(out.glob("filmstrip_*.png"))
+
+
+def test_arms_have_one_name_everywhere() -> None:
+    from fallbench.report.names import arm_name
+
+    assert arm_name("none", "adaptive_qp") == "none + adaptive_qp"
+    assert arm_name("onnx", "-") == "onnx (learned)"

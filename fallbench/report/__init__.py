@@ -19,6 +19,7 @@ from fallbench.report.figures import draw_paper_figures, paper_points
 from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
 from fallbench.report.forest import Pool, forest_figure, forest_markdown, forest_table, paired_changes, pools
 from fallbench.report.grouping import newest_runs, settled_runs, unsettled_note, with_robot
+from fallbench.report.names import PAPERS, arm_name
 from fallbench.report.preimpact import (
     draw_reshaped_falls,
     first_impact_figure,
@@ -81,6 +82,7 @@ def _families(
     return found
 
 
+PAPERS_NOTE = "The papers, by number: " + "; ".join(PAPERS.values()) + "."
 PAPER_FIGURES = ("chosen", "all")  # `fallbench report --paper-figures`
 
 
@@ -257,18 +259,14 @@ def _picked_strips(family: Family, drawn: Drawn, out: Path) -> list[str]:
     body = []
     for pick in family.picks:
         paths = drawn.paths.get(figure_name(pick.run_id), [])
-        caption = (
-            f"{pick.pre_impact} + {pick.policy}, {pick.role} fall (damage {pick.damage:.2f}): {pick.point}"
-        )
+        caption = f"{arm_name(pick.pre_impact, pick.policy)}, {pick.role} fall (damage {pick.damage:.2f}): {pick.point}"
         note = drawn.notes.get(figure_name(pick.run_id), "")
         body.append(f"<h4>{html.escape(caption)}</h4>")
         body += [pages.image(p, out) for p in paths] or [f"<p><em>{html.escape(note)}</em></p>"]
     return body
 
 
-def _family_page(
-    family: Family, out: Path, sweep_paths: list[Path], drawn: Drawn, paper: list[Figure]
-) -> Path:
+def _family_page(family: Family, out: Path, drawn: Drawn, paper: list[Figure]) -> Path:
     group = family.runs
     body = [
         f"<p>{pages.link('index.html', 'overview')}</p>",
@@ -286,7 +284,7 @@ def _family_page(
         "<h2>Medians per strategy and policy</h2>",
         pages.table(family.medians.round(3), index=True),
     ]
-    mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family.name}_")]
+    mine = [p for p in drawn.paths.get(f"sweeps:{family.robot}:{family.name}", []) if p.suffix == ".png"]
     if mine:
         body += ["<h2>Metrics against the swept values</h2>"] + [pages.image(p, out) for p in mine]
     if family.picks:
@@ -299,8 +297,8 @@ def _family_page(
     figures = [(job, [p for p in paths if p.suffix == ".png"]) for job, paths in figures]
     if any(paths for _, paths in figures):
         body.append(
-            "<h2>Per point: the figures of 002 (IMU z, right knee, leg torques, adaptive gains), "
-            "004's top-down view, reshaped falls</h2>"
+            f"<h2>Per point: the figures of {PAPERS['002']} (IMU z, right knee, leg torques, adaptive "
+            f"gains), the top-down view of {PAPERS['004']}, reshaped falls</h2>"
         )
     for job, paths in figures:
         if paths:
@@ -432,8 +430,7 @@ def _tables(runs: pd.DataFrame, halved: pd.DataFrame, families: list[Family]) ->
 def _family_pages(out: Path, sections: _Sections) -> list[Path]:
     """One page per robot and scenario family."""
     return [
-        _family_page(family, out, sections.sweep_paths, sections.drawn, sections.paper[family.stem])
-        for family in sections.families
+        _family_page(family, out, sections.drawn, sections.paper[family.stem]) for family in sections.families
     ]
 
 
@@ -461,7 +458,7 @@ def _index_answer(
     body = [
         f"<h1>fallbench report</h1><p>{_counted(runs, halved, sections.set_aside, sections.unsettled)} from <code>{html.escape(str(results))}</code>; "
         f"{len(sections.failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
-        "runs of a family: its sweep points and seeds.</p>",
+        f"runs of a family: its sweep points and seeds. {html.escape(PAPERS_NOTE)}</p>",
         "<h2>What hurts the robot least</h2>",
     ]
     robots = list(dict.fromkeys(f.robot for f in sections.families))
@@ -545,7 +542,8 @@ def _summary_answer(
     summary = [
         "# fallbench report",
         "",
-        f"{_counted(runs, halved, sections.set_aside, sections.unsettled)} from `{results}`; {len(sections.failed)} failed or diverged.",
+        f"{_counted(runs, halved, sections.set_aside, sections.unsettled)} from `{results}`; {len(sections.failed)} failed or diverged. "
+        + PAPERS_NOTE,
         "",
         "## What hurts the robot least",
         "",

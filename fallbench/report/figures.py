@@ -89,7 +89,10 @@ def imu_figure(
     series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, out: Path, stem: str
 ) -> list[Path]:
     fig, ax = _policy_lines(series, rows, "imu_acc_z")
-    ax.set(ylabel="waist IMU z acceleration (m/s$^2$)", title=f"{title}: IMU z (cf. 002 Fig. 6a)")
+    ax.set(
+        ylabel="waist IMU z acceleration, gravity included (m/s$^2$)",
+        title=f"{title}: IMU z (cf. 002 Fig. 6a)",
+    )
     ax.legend()
     return _save(fig, out, stem, {})
 

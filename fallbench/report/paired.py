@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from fallbench.report.names import arm_name
 from fallbench.report.stats import Estimate, bootstrap
 
 if TYPE_CHECKING:
@@ -24,7 +25,7 @@ HARM_MEASURES = ("fell", "vulnerable_hits")  # an arm clearly worse on one of th
 
 
 def name(arm: Arm) -> str:
-    return f"{arm[0]} + {arm[1]}"
+    return arm_name(*arm)
 
 
 def keys_of(runs: pd.DataFrame) -> list[str]:

@@ -16,7 +16,7 @@ from fallbench.results import store
 from fallbench.robots import get_robot
 
 DIRECTION = "param:push.direction"
-STRATEGY_COLOURS = {"none": "#7f7f7f", "reshape": "#2ca02c"}
+STRATEGY_COLOURS = {"none": "#999999", "reshape": "#009E73"}  # Okabe-Ito grey and bluish green
 TIMELINE_GROUPS = ("feet", "knees", "hands", "arms", "torso", "head")
 SHORT_LABELS = {
     "front": "front",

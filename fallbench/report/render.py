@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 from ruamel.yaml import YAML
 
+from fallbench.report.names import arm_name
 from fallbench.results import store
 from fallbench.scenario import Scenario
 
@@ -77,7 +78,7 @@ def load_replay(results: Path, run_id: str) -> Replay:
         )
     sampled = series[["t", *columns]].dropna()
     row = store.load_run_row(results, run_id)
-    label = f"{row.pre_impact} + {row.policy}, {row.point}"
+    label = f"{arm_name(row.pre_impact, row.policy)}, {row.point}"
     return Replay(
         run_id,
         Scenario.model_validate(spec["scenario"]),
@@ -330,7 +331,7 @@ def video(results: Path, run_ids: list[str], out: Path, fps: int = 30, speed: fl
     try:
         for t in times:
             views = [
-                _caption(c.frame(_at(r, t)), f"{r.row.pre_impact} + {r.row.policy}   t = {t:.2f} s")
+                _caption(c.frame(_at(r, t)), f"{arm_name(r.row.pre_impact, r.row.policy)}   t = {t:.2f} s")
                 for c, r in zip(cameras, replays)
             ]
             frames.append(np.concatenate(views, axis=1))

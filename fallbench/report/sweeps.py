@@ -10,6 +10,7 @@ import pandas as pd
 
 from fallbench.report.figures import _save
 from fallbench.report.grouping import with_robot
+from fallbench.report.names import arm_name
 from fallbench.report.style import STRATEGY_LINES, colour, ordered
 from fallbench.robots import DEFAULT_ROBOT
 
@@ -66,7 +67,7 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
                         color=colour(policy),
                         markersize=4 if scattered else 6,
                         linestyle="none" if scattered else STRATEGY_LINES.get(strategy, "-."),
-                        label=f"{policy} ({strategy})",
+                        label=arm_name(strategy, policy),
                         fillstyle="none" if strategy == "none" else "full",
                     )
                 ax.set(
