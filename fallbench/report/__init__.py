@@ -180,7 +180,7 @@ def _forest_jobs(pooled: dict[str, list[Pool]], families: list[Family], out: Pat
     for robot, robot_pools in pooled.items():
         total = sum(f.robot == robot for f in families)
         for k, pool in enumerate(robot_pools):
-            title = f"{pool.title(robot, total)}: change against none + stiff on the same point and seed"
+            title = f"Change against none + stiff on the same point and seed; {pool.title(robot, total)}"
             stem = f"forest_{robot or 'all'}" + (f"_{k + 1}" if k else "")
             jobs.append(Figure(f"forest:{robot}:{k}", forest_figure, (pool.changes, title, out, stem)))
     for family in families:

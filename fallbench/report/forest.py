@@ -13,12 +13,14 @@ rank first)."""
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from fallbench.report import paired
 from fallbench.report.figures import _save
@@ -131,7 +133,12 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
         ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}{reference}", fontsize=8.5)
         ax.set_xlabel(better, fontsize=8)
         ax.tick_params(labelsize=7.5)
-        ax.locator_params(axis="x", nbins=4)  # wide numbers (forces in N) do not run into each other
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=3))  # wide numbers (forces in N) stay apart
+        ax.xaxis.set_major_formatter(FuncFormatter(_short_number))
+        if measure != IMPROVEMENT and not np.nanmax(
+            np.abs(rows[["low", "high", "value"]].to_numpy()), initial=0
+        ):
+            ax.set_xlim(-1.0, 1.0)  # every change 0: a readable axis, not +-0.05
         for row in y[1::2]:
             ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)
         ax.grid(alpha=0.3, axis="x")
@@ -141,12 +148,18 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     axes[0, 0].set_yticks(y, labels, fontsize=9)
     axes[0, 0].set_ylim(-0.7, len(arms) - 0.3)
     fig.suptitle(title, fontsize=10.5)
+    title_lines = title.count("\n") + 1
     renderer = fig.canvas.get_renderer()
     label_inches = max(t.get_window_extent(renderer).width for t in axes[0, 0].get_yticklabels()) / fig.dpi
-    return _save(fig, out, stem, _margins(fig, label_inches))
+    return _save(fig, out, stem, _margins(fig, label_inches, title_lines))
 
 
-def _margins(fig, label_inches: float) -> dict[str, float]:
+def _short_number(value: float, _position: int = 0) -> str:
+    """Tick labels that fit a narrow panel: 12000 -> "12k", 0.25 -> "0.25"."""
+    return f"{value / 1000:g}k" if abs(value) >= 1000 else f"{value:g}"
+
+
+def _margins(fig, label_inches: float, title_lines: int = 1) -> dict[str, float]:
     """Fixed margins (fractions of the figure) that hold the row labels (their measured width, in),
     the panels' two-line titles and the suptitle above, the tick labels and the direction note
     below: laying them out with tight_layout took half the figure's time."""
@@ -155,7 +168,7 @@ def _margins(fig, label_inches: float) -> dict[str, float]:
         "left": min(0.2 + label_inches, 0.6 * width) / width,
         "right": 1 - 0.12 / width,
         "bottom": 0.55 / height,
-        "top": 1 - 0.85 / height,
+        "top": 1 - (0.68 + 0.17 * title_lines) / height,
         "wspace": 0.12,
     }
 
@@ -201,8 +214,9 @@ class Pool:
     changes: pd.DataFrame
 
     def title(self, robot: str, total: int) -> str:
-        shown = ", ".join(self.families) if len(self.families) <= 6 else f"{len(self.families)} families"
-        return f"{robot} {len(self.families)} of {total} families with the same arms ({shown})".strip()
+        """ "talos: 10 of 18 families where the same arms ran" and, wrapped, which."""
+        head = f"{robot}: {len(self.families)} of {total} families where the same arms ran".lstrip(": ")
+        return head + "\n" + "\n".join(textwrap.wrap(", ".join(self.families), 150))
 
 
 def pools(robot_runs: pd.DataFrame) -> list[Pool]:
