@@ -373,3 +373,31 @@ def test_a_reshaped_fall_without_fall_time_is_skipped_with_a_note(tmp_path: Path
     assert (
         drawn.notes[figure.name] == "reshaped fall push#s0, stiff: skipped, the reshape run has no fall_time"
     )
+
+
+def test_sweep_figures_have_units_angles_on_polar_axes_and_the_demand_ratio_on_a_log_axis() -> None:
+    import matplotlib.pyplot as plt
+
+    from fallbench.report.sweeps import _sweep_figure
+
+    rows = [
+        _row(
+            f"r{k}{seed}",
+            "push",
+            f"push#{k}",
+            seed,
+            "none",
+            "stiff",
+            **{"param:push.direction": d, "param:push.start": 0.1 * k},
+        )
+        | {"imu_peak_z": 50.0 + k + seed, "knee_limit_margin": 0.5, "torque_demand_ratio_max": 10.0**k}
+        for k, d in enumerate((0.0, 90.0, 180.0, 270.0))
+        for seed in range(3)
+    ]
+    runs = pd.DataFrame(rows)
+    polar, _ = _sweep_figure(runs, "param:push.direction", "talos", "push")
+    assert [ax.name for ax in polar.axes[:3]] == ["polar"] * 3
+    line, _ = _sweep_figure(runs, "param:push.start", "talos", "push")
+    assert line.axes[0].get_xlabel() == "push.start (s)" and line.axes[2].get_yscale() == "log"
+    assert len(line.axes[0].collections) == 1  # the intervals: three seeds per value
+    plt.close("all")
