@@ -213,8 +213,13 @@ def framing(replays: list[Replay]) -> Framing:
     width = float(np.linalg.norm(high[:2] - low[:2]))
     fit = max((high[2] - low[2]) / 2 / half_fov, width / 2 / (half_fov * FRAME_SIZE[0] / FRAME_SIZE[1]))
     distance = 1.1 * fit + 0.5
-    views = [azimuth + turn for turn in AZIMUTH_TURNS]
-    best = min(views, key=lambda a: _hidden(replays[0], _camera_position(centre, distance, a)))
+    best, least = azimuth, None
+    for view in (azimuth + turn for turn in AZIMUTH_TURNS):
+        hidden = _hidden(replays[0], _camera_position(centre, distance, view))
+        if least is None or hidden < least:
+            best, least = view, hidden
+        if hidden == 0:  # nothing in the way: look no further (most scenes have no obstacle)
+            break
     return Framing((float(centre[0]), float(centre[1]), float(centre[2])), distance, best)
 
 
