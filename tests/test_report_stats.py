@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fallbench.report.ranking import ranking_table, verdict
+from fallbench.report.ranking import ranked, ranking_table, shown_table, verdict
 from fallbench.report.stats import bootstrap, natural_sorted
 
 
@@ -170,7 +170,7 @@ def test_verdict_with_one_run_per_arm_and_with_a_single_arm() -> None:
         ("none", "zero"): {"imu_peak_z": 90, "contact_force_peak_head": 900},
     }
     line = verdict(_arms_family(arms, points=1))
-    assert line.startswith("least damage: none + zero (mean rank 1 of 2 over 2 measures, 1 runs)")
+    assert line.startswith("least damage: none + zero (mean rank 1 of 2 over 2 measures, 1 run)")
     assert line.endswith("one run each, so no interval: a ranking of single falls, not of distributions")
     alone = _arms_family({("none", "zero"): arms[("none", "zero")]})
     assert verdict(alone) == "only none + zero ran"
@@ -229,6 +229,7 @@ def test_arms_with_the_same_falls_pair_by_pair_are_one_row() -> None:
     runs["direction_strategy"] = np.where(runs.pre_impact == "direction", "no_action", None)
     table = ranking_table(runs)
     assert list(zip(table.pre_impact, table.policy)) == [("none", "zero"), ("none", "stiff")]
+    assert list(shown_table(ranked(runs)).arm) == ["none + zero = direction + zero", "none + stiff"]
     assert table["same falls as"][0] == "direction + zero (5 runs; direction chose no_action in 5/5)"
     assert verdict(runs).startswith("least damage: none + zero = direction + zero (mean rank 1 of 2")
 

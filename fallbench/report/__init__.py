@@ -48,7 +48,7 @@ class Family:
 
     @property
     def table(self) -> pd.DataFrame:
-        return self.ranked.table
+        return ranking.shown_table(self.ranked)
 
     @property
     def verdict(self) -> str:

@@ -160,6 +160,15 @@ def ranking_table(runs: pd.DataFrame) -> pd.DataFrame:
     return ranked(runs).table
 
 
+def shown_table(done: Ranked) -> pd.DataFrame:
+    """The ranking as pages show it: each row named as everywhere else ("none + stiff = direction
+    + stiff", "onnx (learned)") in place of its strategy and policy columns."""
+    if done.table.empty:
+        return done.table
+    names = [row_name(done, arm) for arm in zip(done.table.pre_impact, done.table.policy)]
+    return done.table.drop(columns=["pre_impact", "policy"]).assign(arm=names).set_index("arm").reset_index()
+
+
 def row_name(done: Ranked, arm: Arm) -> str:
     """The row's arm and the arms merged into it: "none + stiff = direction + stiff"."""
     return " = ".join(paired.name(a) for a in [arm, *done.same.get(arm, [])])
@@ -187,14 +196,17 @@ def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
         names = ", ".join(row_name(done, arm) for arm in tied)
         return f"a tie: {names} share the best mean rank ({rank[best]:g} of {len(arms)}){left_out}"
     runs_of_best = max(e.n for e in done.estimates[best].values())
+    runs_text = f"{runs_of_best} run{'s' if runs_of_best != 1 else ''}"
     line = (
         f"least damage: {row_name(done, best)} (mean rank {rank[best]:g} of {len(arms)} over "
-        f"{len(done.measures)} measures, {runs_of_best} runs){left_out}"
+        f"{len(done.measures)} measures, {runs_text}){left_out}"
     )
+    if not any(paired.REFERENCE in [arm, *done.same.get(arm, [])] for arm in arms):
+        line += "; no none + stiff runs here, so harm against it is not checked"
     if runs_of_best < 2:
         return line + "; one run each, so no interval: a ranking of single falls, not of distributions"
     if len(eligible) == 1:
-        return line + "; the only arm not clearly worse than none + stiff"
+        return line + "; every other arm is clearly worse than none + stiff on fell or vulnerable parts hit"
     return line + _against_runner_up(done, best, eligible[1])
 
 
