@@ -387,6 +387,7 @@ def test_runs_that_did_not_settle_are_left_out_and_counted(tmp_path: Path) -> No
     build_report(results, out, progress=False)
     index, family = (out / "index.html").read_text(), (out / "family_talos_fam.html").read_text()
     assert "6 runs; 2 runs did not settle by their cap, left out from" in index
+    assert "names the unprotected fall (none + stiff) least damage: talos 1 of 1 (ties: 0)." in index
     assert (
         "6 runs over 4 points (sweep values x seeds); 2 runs did not settle by their cap, left out." in family
     )

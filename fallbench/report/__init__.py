@@ -20,6 +20,7 @@ from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstr
 from fallbench.report.forest import Pool, forest_figure, forest_markdown, forest_table, paired_changes, pools
 from fallbench.report.grouping import newest_runs, settled_runs, unsettled_note, with_robot
 from fallbench.report.names import PAPERS, arm_name
+from fallbench.report.paired import REFERENCE
 from fallbench.report.preimpact import (
     draw_reshaped_falls,
     first_impact_figure,
@@ -468,6 +469,7 @@ def _index_answer(
             "same arms ran</h3>",
             *_forest(sections.forest(robot), out),
         ]
+    body.append(f"<p class='verdict'>{html.escape(_headline_count(sections.families))}</p>")
     body.append(
         "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
         "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>"
@@ -477,6 +479,25 @@ def _index_answer(
             body.append(f"<h2>Robot {html.escape(robot)}</h2>")
         body += _answer(sections.families, robot)
     return body
+
+
+def _headline_count(families: list[Family]) -> str:
+    """How often doing nothing wins, per robot: the families (of more than one arm) whose verdict
+    names none + stiff, and the ties."""
+    parts = []
+    for robot in dict.fromkeys(f.robot for f in families):
+        contested = [f for f in families if f.robot == robot and len(f.ranked.table) > 1]
+        unprotected = ties = 0
+        for family in contested:
+            arms = ranking.best_arms(family.ranked)
+            ties += len(arms) > 1
+            unprotected += len(arms) == 1 and REFERENCE in [arms[0], *family.ranked.same[arms[0]]]
+        parts.append(f"{robot} {unprotected} of {len(contested)} (ties: {ties})".strip())
+    return (
+        "Families whose verdict names the unprotected fall (none + stiff) least damage: "
+        + "; ".join(parts)
+        + "."
+    )
 
 
 def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Sections) -> list[str]:

@@ -174,6 +174,15 @@ def row_name(done: Ranked, arm: Arm) -> str:
     return " = ".join(paired.name(a) for a in [arm, *done.same.get(arm, [])])
 
 
+def best_arms(done: Ranked) -> list[Arm]:
+    """The rows of the best mean rank among those not clearly worse than `none` + `stiff` on a
+    harm measure: one is the verdict's named arm, more are a tie."""
+    table = done.table
+    arms = [a for a in zip(table.pre_impact, table.policy) if not done.harm[a]] if len(table) else []
+    rank = dict(zip(zip(table.pre_impact, table.policy), table["mean rank"])) if arms else {}
+    return [arm for arm in arms if rank[arm] == rank[arms[0]]]
+
+
 def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
     """One line that follows from the ranking beside it (docs/report.md, "The verdict"): the arm of
     the best mean rank among those not clearly worse than `none` + `stiff` on a harm measure, and
@@ -186,12 +195,12 @@ def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
     if len(arms) == 1:
         return f"only {row_name(done, arms[0])} ran"
     eligible = [arm for arm in arms if not done.harm[arm]]
-    if not eligible:
+    tied = best_arms(done)
+    if not tied:
         return "no arm named: every one is clearly worse than none + stiff on a harm measure"
     rank = dict(zip(arms, table["mean rank"]))
-    best = eligible[0]
+    best = tied[0]
     left_out = _left_out(done, arms[: arms.index(best)])
-    tied = [arm for arm in eligible if rank[arm] == rank[best]]
     if len(tied) > 1:
         names = ", ".join(row_name(done, arm) for arm in tied)
         return f"a tie: {names} share the best mean rank ({rank[best]:g} of {len(arms)}){left_out}"
