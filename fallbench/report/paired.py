@@ -32,18 +32,19 @@ def keys_of(runs: pd.DataFrame) -> list[str]:
     return [k for k in PAIR_KEYS if k in runs]
 
 
-def arm_runs(ok: pd.DataFrame, arm: Arm) -> pd.DataFrame:
-    """The arm's successful runs, one per pair key."""
-    mine = ok[(ok.pre_impact == arm[0]) & (ok.policy == arm[1])]
-    return mine.drop_duplicates(keys_of(ok))
+def arm_runs(ok: pd.DataFrame, arm: Arm, columns: Sequence[str] | None = None) -> pd.DataFrame:
+    """The arm's successful runs, one per pair key (only the keys and `columns`, if given: a store
+    has hundreds of columns, and copying them all made pairing the report's slowest table)."""
+    keys = keys_of(ok)
+    mine = (ok.pre_impact == arm[0]) & (ok.policy == arm[1])
+    return (ok.loc[mine] if columns is None else ok.loc[mine, keys + list(columns)]).drop_duplicates(keys)
 
 
 def pairs(ok: pd.DataFrame, arm: Arm, columns: Sequence[str]) -> pd.DataFrame:
     """The arm's runs joined with their reference run (`<column>:reference`); runs without one are
     left out."""
-    keys = keys_of(ok)
-    reference = arm_runs(ok, REFERENCE)[keys + list(columns)]
-    return arm_runs(ok, arm)[keys + list(columns)].merge(reference, on=keys, suffixes=("", ":reference"))
+    reference = arm_runs(ok, REFERENCE, columns)
+    return arm_runs(ok, arm, columns).merge(reference, on=keys_of(ok), suffixes=("", ":reference"))
 
 
 def change(pair_rows: pd.DataFrame, column: str) -> np.ndarray:
@@ -58,7 +59,7 @@ def identical_groups(ok: pd.DataFrame, arms: Sequence[Arm], columns: Sequence[st
     the order of `arms`, its first arm the one that names it."""
     keys = keys_of(ok)
     runs = {
-        arm: arm_runs(ok, arm)[keys + list(columns)]
+        arm: arm_runs(ok, arm, columns)
         .astype({c: float for c in columns})
         .sort_values(keys)
         .reset_index(drop=True)

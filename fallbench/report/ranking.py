@@ -126,8 +126,9 @@ def _harm(ok: pd.DataFrame, arm: Arm, found: list[Measure]) -> list[tuple[str, E
     if arm == paired.REFERENCE:
         return []
     worse = []
-    for measure in (m for m in found if m.column in paired.HARM_MEASURES):
-        pair_rows = paired.pairs(ok, arm, [measure.column])
+    harm_measures = [m for m in found if m.column in paired.HARM_MEASURES]
+    pair_rows = paired.pairs(ok, arm, [m.column for m in harm_measures])
+    for measure in harm_measures:
         estimate = bootstrap(paired.change(pair_rows, measure.column), measure.change)
         if paired.clearly_worse(estimate, measure.lower_is_better):
             worse.append((measure.label.split(" (")[0], estimate))
