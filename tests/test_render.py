@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -122,3 +123,22 @@ def test_filmstrip_and_video_where_gl_works(stored: tuple[Path, str], tmp_path: 
     assert (
         len(frames) == 3 and frames[0].shape[1] == 2 * frames[0].shape[0] * 4 // 3
     )  # two 4:3 views side by side
+
+
+def test_filmstrip_camera_turns_away_from_an_obstacle_that_hides_the_robot() -> None:
+    """A robot standing still is seen from its front-left (azimuth 210); a wall there would hide
+    it, so the camera takes the first view around it that sees the whole robot."""
+    from fallbench.report.render import Replay, _camera_position, _hidden, framing
+    from fallbench.scenario import Scenario
+    from fallbench.sim.world import build_world
+
+    wall = {"type": "box", "pos": [1.0, 0.6, 1.0], "size": [0.1, 1.6, 2.0], "yaw": 60}
+    scenario = Scenario(name="walled", duration=1.0, obstacles=[wall])
+    qpos = np.tile(build_world(scenario).model.qpos0, (20, 1))
+    replay = Replay("r", scenario, "none + stiff", np.linspace(0.0, 1.0, 20), qpos, pd.Series(dtype=object))
+    view = framing([replay])
+    centre = np.array(view.lookat)
+    assert _hidden(replay, _camera_position(centre, view.distance, 210.0)) > 0
+    assert (
+        view.azimuth != 210.0 and _hidden(replay, _camera_position(centre, view.distance, view.azimuth)) == 0
+    )

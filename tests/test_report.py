@@ -342,3 +342,64 @@ def test_report_of_a_store_holding_a_fall_twice_uses_the_newest(tmp_path: Path, 
     assert "4 runs; 2 older run(s) of a fall stored again set aside" in (out / "index.html").read_text()
     summary = (out / "summary.md").read_text()
     assert "2 older run(s)" in summary.splitlines()[2] and "12345" in summary
+
+
+def test_runs_that_did_not_settle_are_left_out_and_counted(tmp_path: Path) -> None:
+    """none + zero is gentler than none + stiff only in its two runs still moving at their cap:
+    left out, they change no verdict, and the overview and the family page count them."""
+    from fallbench.report import build_report
+    from fallbench.results import store
+
+    results, out = tmp_path / "results", tmp_path / "reports"
+    for k in range(4):
+        for policy, head in (("stiff", 500.0), ("zero", 600.0 if k < 2 else 1.0)):
+            run_id = f"{policy}{k}"
+            row = {
+                "run_id": run_id,
+                "robot": "talos",
+                "scenario": "fam",
+                "point": f"fam#s{k}",
+                "seed": k,
+                "status": "ok",
+                "error": "",
+                "pre_impact": "none",
+                "policy": policy,
+                "contact_force_peak_head": head + k,
+                "imu_peak_z": 100.0,
+                "knee_limit_margin": 0.3,
+                "torque_demand_ratio_max": 1.0,
+                "contact_force_peak": 2000.0,
+                "joint_limit_hits": 0,
+                "first_impact_group": "hands",
+                "first_impact_safe": True,
+                "obstacle_force_peak": 0.0,
+                "time_to_first_impact": 0.5,
+                "impact_time": 0.5,
+                "landing_error": float("nan"),
+                "contact_force_peak_bw": 2.0,
+                "contact_force_peak_torso": 500.0,
+                "vulnerable_hits": 0,
+                "fell": True,
+                "settled": policy == "stiff" or k < 2,
+            }
+            store.write_run(results, run_id, {"point": row["point"]}, row, None)
+    store.consolidate(results)
+    build_report(results, out, progress=False)
+    index, family = (out / "index.html").read_text(), (out / "family_talos_fam.html").read_text()
+    assert "6 runs; 2 runs did not settle by their cap, left out from" in index
+    assert "names the unprotected fall (none + stiff) least damage: talos 1 of 1 (ties: 0)." in index
+    assert (
+        "6 runs over 4 points (sweep values x seeds); 2 runs did not settle by their cap, left out." in family
+    )
+    for page in (index, family):
+        assert "least damage: none + stiff" in page and "none + zero (mean rank" not in page
+
+
+def test_a_store_without_settled_counts_every_run_as_settled() -> None:
+    from fallbench.report.grouping import settled_runs
+
+    runs = pd.DataFrame({"run_id": ["a", "b"], "status": ["ok", "ok"]})
+    kept, unsettled = settled_runs(runs)
+    assert list(kept.run_id) == ["a", "b"] and unsettled.empty
+    kept, unsettled = settled_runs(runs.assign(settled=[True, False]))
+    assert list(kept.run_id) == ["a"] and list(unsettled.run_id) == ["b"]

@@ -14,8 +14,10 @@ from typer.testing import CliRunner
 from fallbench.cli import app
 from fallbench.report import drawing
 from fallbench.report.filmstrips import damage, family_picks, picks
-from fallbench.report.forest import paired_changes
+from fallbench.report.forest import forest_table, paired_changes, pools
+from fallbench.report.preimpact import TIMELINE_GROUPS, draw_reshaped_falls
 from fallbench.results import store
+from fallbench.robots import get_robot
 
 
 def _row(run_id: str, family: str, point: str, seed: int, strategy: str, policy: str, **metrics) -> dict:
@@ -136,6 +138,50 @@ def test_forest_plot_numbers_are_paired_changes_against_none_stiff() -> None:
     assert 10.0 <= head.low <= 20.0 <= head.high <= 30.0 and head.unit == "N"
     fell = changes.loc[("zero", "fell")]
     assert fell.value == pytest.approx(1 / 3) and fell.pairs == 3  # the mean change of the fraction
+
+
+def test_probability_of_improvement_scores_each_pair_over_the_measures() -> None:
+    """none + zero hits the head harder in all 3 pairs (0 each) and falls where none + stiff does
+    not in one (0), as often in two (0.5): pair scores 0.25, 0, 0.25."""
+    changes = paired_changes(_forest_runs()).set_index(["policy", "measure"])
+    improvement = changes.loc[("zero", "improvement")]
+    assert improvement.value == pytest.approx(1 / 6) and improvement.pairs == 3
+    assert (improvement.low, improvement.high) == (0.0, 0.25)
+    assert improvement.unit == "share of pairs"
+
+
+def test_the_change_table_is_the_forest_and_counts_pairs_whose_reference_is_0() -> None:
+    """Head forces of none + stiff 0 in 4 of 6 pairs: every pair counts (a change is a difference),
+    the table says how many references are 0, and its numbers are the forest's."""
+    rows = []
+    for k, (reference, ours) in enumerate([(0, 0), (0, 0), (0, 0), (0, 0), (100, 50), (200, 100)]):
+        point = f"lab[x={k}]#s0"
+        rows.append(_row(f"s{k}", "lab", point, 0, "none", "stiff", contact_force_peak_head=float(reference)))
+        rows.append(_row(f"z{k}", "lab", point, 0, "none", "zero", contact_force_peak_head=float(ours)))
+    changes = paired_changes(pd.DataFrame(rows))
+    head = changes.set_index("measure").loc["contact_force_peak_head"]
+    assert (head.value, head.pairs, head.reference, head.zero_references) == (0.0, 6, 0.0, 4)
+    table = forest_table(changes).set_index("arm")
+    assert table.loc["none + zero", "pairs"] == 6
+    assert table.loc["none + zero", "head peak force (N)"] == f"+0 [{head.low:+.3g}, +0] (ref. 0, 0 in 4/6)"
+
+
+def test_pooled_forests_pool_only_families_where_the_same_arms_ran() -> None:
+    """`reshape` ran in one family only: it gets its own pool, and the other pool's reference is
+    its own pairs' (not the first row's)."""
+    runs = _forest_runs().assign(scenario="a")
+    other = _forest_runs().assign(
+        scenario="b", contact_force_peak_head=lambda r: r.contact_force_peak_head * 10
+    )
+    other = other.assign(run_id=other.run_id + "b")
+    reshaped = other[other.policy == "zero"].assign(
+        pre_impact="reshape", run_id=lambda r: r.run_id + "r", contact_force_peak_head=1.0
+    )
+    found = pools(pd.concat([runs, other, reshaped]))
+    assert [pool.families for pool in found] == [["b"], ["a"]]
+    assert sorted(set(found[0].changes.name)) == ["none + zero", "reshape + zero"]
+    head = found[1].changes.set_index("measure").loc["contact_force_peak_head"]
+    assert head.reference == 200.0 and head.pairs == 3
 
 
 def test_forest_interval_is_the_bootstrap_of_the_differences() -> None:
@@ -305,3 +351,53 @@ def test_envelope_keeps_every_peak_of_a_long_series() -> None:
     assert shown_y.max() == 250.0 and shown_t[shown_y.argmax()] == t[3001]
     assert shown_y.min() == -80.0 and shown_t[shown_y.argmin()] == t[17]
     assert envelope(t[:100], y[:100], buckets=800)[1].tolist() == y[:100].tolist()  # short: unchanged
+
+
+def test_a_reshaped_fall_without_fall_time_is_skipped_with_a_note(tmp_path: Path) -> None:
+    """A reshape run that fell with no fall_time (no detector saw it) stopped the whole report with
+    "Axis limits cannot be NaN or Inf": now its figure is skipped and the note says why."""
+    results = tmp_path / "results"
+    columns = [f"q:{joint}" for joint in get_robot("talos").trajectory_joints]
+    columns += [f"force:{group}" for group in TIMELINE_GROUPS]
+    series = pd.DataFrame({"t": np.linspace(0.0, 1.0, 11)} | {c: np.zeros(11) for c in columns})
+    for strategy in ("none", "reshape"):
+        row = _row(strategy, "push", "push#s0", 0, strategy, "stiff", fell=True, fall_time=np.nan)
+        store.write_run(results, strategy, {"point": "push#s0"}, row, series)
+    store.consolidate(results)
+    rows = store.load_metrics(results)
+    figure = drawing.Figure(
+        "reshape:talos:push#s0:stiff", draw_reshaped_falls, (rows, results, tmp_path, "push#s0", "stiff")
+    )
+    drawn = drawing.draw([figure], results, tmp_path)
+    assert drawn.paths[figure.name] == []
+    assert (
+        drawn.notes[figure.name] == "reshaped fall push#s0, stiff: skipped, the reshape run has no fall_time"
+    )
+
+
+def test_sweep_figures_have_units_angles_on_polar_axes_and_the_demand_ratio_on_a_log_axis() -> None:
+    import matplotlib.pyplot as plt
+
+    from fallbench.report.sweeps import _sweep_figure
+
+    rows = [
+        _row(
+            f"r{k}{seed}",
+            "push",
+            f"push#{k}",
+            seed,
+            "none",
+            "stiff",
+            **{"param:push.direction": d, "param:push.start": 0.1 * k},
+        )
+        | {"imu_peak_z": 50.0 + k + seed, "knee_limit_margin": 0.5, "torque_demand_ratio_max": 10.0**k}
+        for k, d in enumerate((0.0, 90.0, 180.0, 270.0))
+        for seed in range(3)
+    ]
+    runs = pd.DataFrame(rows)
+    polar, _ = _sweep_figure(runs, "param:push.direction", "talos", "push")
+    assert [ax.name for ax in polar.axes[:3]] == ["polar"] * 3
+    line, _ = _sweep_figure(runs, "param:push.start", "talos", "push")
+    assert line.axes[0].get_xlabel() == "push.start (s)" and line.axes[2].get_yscale() == "log"
+    assert len(line.axes[0].collections) == 1  # the intervals: three seeds per value
+    plt.close("all")

@@ -4,6 +4,7 @@ the papers' figures and claims; index.html, one page per family, and summary.md.
 from __future__ import annotations
 
 import html
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,8 +17,10 @@ from fallbench.report.direction import direction_report, top_down_figure
 from fallbench.report.drawing import Drawn, Figure, draw
 from fallbench.report.figures import draw_paper_figures, paper_points
 from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
-from fallbench.report.forest import forest_figure, forest_markdown, paired_changes
-from fallbench.report.grouping import newest_runs, with_robot
+from fallbench.report.forest import Pool, forest_figure, forest_markdown, forest_table, paired_changes, pools
+from fallbench.report.grouping import newest_runs, settled_runs, unsettled_note, with_robot
+from fallbench.report.names import PAPERS, arm_name
+from fallbench.report.paired import REFERENCE
 from fallbench.report.preimpact import (
     draw_reshaped_falls,
     first_impact_figure,
@@ -41,12 +44,12 @@ class Family:
     picks: list[Pick]  # the falls shown as filmstrips (`--filmstrips`)
     changes: pd.DataFrame  # paired changes against none + stiff (the forest plot's numbers)
     arm_picks: list[Pick]  # the typical and worst fall of every (strategy, policy)
-    relative: pd.DataFrame | None = None  # ranking.relative_changes, set by `_tables`
+    unsettled: int = 0  # runs that did not settle by their cap, left out of `runs`
     medians: pd.DataFrame | None = None  # sweeps.median_table, set by `_tables`
 
     @property
     def table(self) -> pd.DataFrame:
-        return self.ranked[0]
+        return ranking.shown_table(self.ranked)
 
     @property
     def verdict(self) -> str:
@@ -61,7 +64,10 @@ class Family:
         return pages.family_file(self.robot, self.name).removesuffix(".html")
 
 
-def _families(per_robot: dict[str, pd.DataFrame], filmstrips: str = "family") -> list[Family]:
+def _families(
+    per_robot: dict[str, pd.DataFrame], filmstrips: str = "family", unsettled: pd.DataFrame | None = None
+) -> list[Family]:
+    left_out = Counter(zip(unsettled.robot, unsettled.scenario)) if unsettled is not None else Counter()
     found = []
     for robot, robot_runs in per_robot.items():
         for family in ranking.families(robot_runs):
@@ -70,10 +76,14 @@ def _families(per_robot: dict[str, pd.DataFrame], filmstrips: str = "family") ->
             arms = ranking.arm_order(group, done)
             every_arm = family_picks(robot, family, group, arms, "all")
             shown = every_arm if filmstrips == "all" else family_picks(robot, family, group, arms, filmstrips)
-            found.append(Family(robot, family, group, done, shown, paired_changes(group, arms), every_arm))
+            changes = paired_changes(group, done)
+            found.append(
+                Family(robot, family, group, done, shown, changes, every_arm, left_out[(robot, family)])
+            )
     return found
 
 
+PAPERS_NOTE = "The papers, by number: " + "; ".join(PAPERS.values()) + "."
 PAPER_FIGURES = ("chosen", "all")  # `fallbench report --paper-figures`
 
 
@@ -164,15 +174,16 @@ def _slim(rows: pd.DataFrame) -> pd.DataFrame:
     return rows[[c for c in ("run_id", "robot", "point", "policy", "impact_time") if c in rows]]
 
 
-def _forest_jobs(per_robot: dict[str, pd.DataFrame], families: list[Family], out: Path) -> list[Figure]:
-    """The overview's forest plot per robot (all its families' pairs) and one per family."""
+def _forest_jobs(pooled: dict[str, list[Pool]], families: list[Family], out: Path) -> list[Figure]:
+    """The overview's forest plots per robot (one per pool of families with the same arms) and one
+    per family."""
     jobs = []
-    for robot, robot_runs in per_robot.items():
-        changes = paired_changes(robot_runs)
-        title = f"{robot} all families: change against none + stiff on the same point and seed".strip()
-        jobs.append(
-            Figure(f"forest:{robot}", forest_figure, (changes, title, out, f"forest_{robot or 'all'}"))
-        )
+    for robot, robot_pools in pooled.items():
+        total = sum(f.robot == robot for f in families)
+        for k, pool in enumerate(robot_pools):
+            title = f"Change against none + stiff on the same point and seed; {pool.title(robot, total)}"
+            stem = f"forest_{robot or 'all'}" + (f"_{k + 1}" if k else "")
+            jobs.append(Figure(f"forest:{robot}:{k}", forest_figure, (pool.changes, title, out, stem)))
     for family in families:
         title = f"{family.title}: change against none + stiff on the same point and seed"
         jobs.append(
@@ -227,8 +238,10 @@ def _answer(families: list[Family], robot: str) -> list[str]:
 FOREST_NOTE = (
     "Each row a pre-impact strategy + gain policy, best mean rank first; each panel a damage measure. "
     "Dot: the median of its paired changes against the unprotected fall (none + stiff) of the same point "
-    "and seed (fell: the mean, i.e. the change in the fraction of runs that fell); bar: 95 % bootstrap "
-    "interval; grey line: no change. A bar clear of the line is a change the data support. Marker: "
+    "and seed (fell and counts: the mean, e.g. the change in the fraction of runs that fell); bar: 95 % bootstrap "
+    "interval; grey line: no change. A bar clear of the line is a change the data support. Last panel: "
+    "the probability of improvement, the share of pairs in which the arm does less damage (each pair "
+    "scored 1, 0.5 or 0 per measure, averaged over the measures; grey line at 0.5). Marker: "
     "circle none, square reshape, diamond direction, triangle any other (e.g. a whole-fall controller such "
     "as onnx, policy -); colour: the gain policy; n: pairs."
 )
@@ -247,34 +260,32 @@ def _picked_strips(family: Family, drawn: Drawn, out: Path) -> list[str]:
     body = []
     for pick in family.picks:
         paths = drawn.paths.get(figure_name(pick.run_id), [])
-        caption = (
-            f"{pick.pre_impact} + {pick.policy}, {pick.role} fall (damage {pick.damage:.2f}): {pick.point}"
-        )
+        caption = f"{arm_name(pick.pre_impact, pick.policy)}, {pick.role} fall (damage {pick.damage:.2f}): {pick.point}"
         note = drawn.notes.get(figure_name(pick.run_id), "")
         body.append(f"<h4>{html.escape(caption)}</h4>")
         body += [pages.image(p, out) for p in paths] or [f"<p><em>{html.escape(note)}</em></p>"]
     return body
 
 
-def _family_page(
-    family: Family, out: Path, sweep_paths: list[Path], drawn: Drawn, paper: list[Figure]
-) -> Path:
+def _family_page(family: Family, out: Path, drawn: Drawn, paper: list[Figure]) -> Path:
     group = family.runs
     body = [
         f"<p>{pages.link('index.html', 'overview')}</p>",
         f"<h1>{html.escape(family.title)}</h1>",
-        f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds).</p>",
+        f"<p>{len(group)} runs over {group.point.nunique()} points (sweep values x seeds)"
+        f"{'; ' + unsettled_note(family.unsettled) if family.unsettled else ''}.</p>",
         f"<p class='verdict'>{html.escape(family.verdict)}</p>",
         "<h2>Change against the unprotected fall (none + stiff), per damage measure</h2>",
         *_forest(drawn.paths.get(f"forest:{family.stem}", []), out),
         "<h2>Ranking: median [95 % bootstrap CI] over points and seeds, best mean rank first</h2>",
         pages.table(family.table),
-        "<h2>Change against the unprotected fall (none + stiff) of the same point and seed</h2>",
-        pages.table(family.relative),
+        "<h2>Change against the unprotected fall (none + stiff) of the same point and seed: the forest "
+        "plot's numbers</h2>",
+        pages.table(forest_table(family.changes)),
         "<h2>Medians per strategy and policy</h2>",
         pages.table(family.medians.round(3), index=True),
     ]
-    mine = [p for p in sweep_paths if p.suffix == ".png" and p.stem.startswith(f"sweep_{family.name}_")]
+    mine = [p for p in drawn.paths.get(f"sweeps:{family.robot}:{family.name}", []) if p.suffix == ".png"]
     if mine:
         body += ["<h2>Metrics against the swept values</h2>"] + [pages.image(p, out) for p in mine]
     if family.picks:
@@ -287,8 +298,8 @@ def _family_page(
     figures = [(job, [p for p in paths if p.suffix == ".png"]) for job, paths in figures]
     if any(paths for _, paths in figures):
         body.append(
-            "<h2>Per point: the figures of 002 (IMU z, right knee, leg torques, adaptive gains), "
-            "004's top-down view, reshaped falls</h2>"
+            f"<h2>Per point: the figures of {PAPERS['002']} (IMU z, right knee, leg torques, adaptive "
+            f"gains), the top-down view of {PAPERS['004']}, reshaped falls</h2>"
         )
     for job, paths in figures:
         if paths:
@@ -296,6 +307,9 @@ def _family_page(
             body.append(
                 f"<details><summary>{html.escape(job.name.split(':', 2)[-1])}</summary>{images}</details>"
             )
+    body += [
+        f"<p><em>{html.escape(drawn.notes[job.name])}</em></p>" for job in paper if job.name in drawn.notes
+    ]
     return pages.write(out / pages.family_file(family.robot, family.name), family.title, body)
 
 
@@ -325,8 +339,9 @@ class _Sections:
     verdicts: pd.DataFrame
     step_changes: pd.DataFrame  # headline metrics' change when the physics step is halved
     failed: pd.DataFrame
-    robot_changes: dict[str, pd.DataFrame]  # robot -> change against none + stiff, all its families
+    pooled: dict[str, list[Pool]]  # robot -> its families pooled by the arms that ran in them
     set_aside: int = 0  # older duplicates of a fall left out (grouping.newest_runs)
+    unsettled: int = 0  # runs that did not settle by their cap, left out (grouping.settled_runs)
 
     @property
     def strip_paths(self) -> list[Path]:
@@ -337,7 +352,9 @@ class _Sections:
         return [p for jobs in self.paper.values() for job in jobs for p in self.drawn.paths.get(job.name, [])]
 
     def forest(self, robot: str) -> list[Path]:
-        return self.drawn.paths.get(f"forest:{robot}", [])
+        return [
+            p for k in range(len(self.pooled[robot])) for p in self.drawn.paths.get(f"forest:{robot}:{k}", [])
+        ]
 
     @property
     def strip_note(self) -> str:
@@ -352,12 +369,13 @@ def _sections(
     every table of the report; `halved` are the runs at another physics step, for the
     numerical-validity section only."""
     per_robot = ranking.robots(runs)
-    families = _families(per_robot, options.filmstrips)
+    families = _families(per_robot, options.filmstrips, options.unsettled)
     paper = _paper_jobs(families, results, out, options.paper_figures)
     chosen = [p for f in families for p in f.picks]
     # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
     # (300 MB), and the renderer's libraries would otherwise count as a leak
-    jobs = filmstrip_figures(chosen, results, out) + _forest_jobs(per_robot, families, out)
+    pooled = {robot: pools(robot_runs) for robot, robot_runs in per_robot.items()}
+    jobs = filmstrip_figures(chosen, results, out) + _forest_jobs(pooled, families, out)
     jobs += [job for family_jobs in paper.values() for job in family_jobs]
     jobs += _summary_figure_jobs(runs, out) + _direction_job(runs, results, out)
     with ThreadPoolExecutor(max_workers=1) as waiting:
@@ -366,7 +384,7 @@ def _sections(
         pending = waiting.submit(draw, jobs, results, out, jobs=options.jobs, vector=options.svg)
         if options.jobs <= 1:
             pending.result()
-        tables = _tables(runs, halved, per_robot, families)
+        tables = _tables(runs, halved, families)
         drawn = pending.result()
     options.drawn, options.cached = drawn.drawn, drawn.cached
 
@@ -383,18 +401,18 @@ def _sections(
         pre_tables=tables.pop("pre_tables") | direction_tables,
         sensitivity_paths=paths("sensitivity:"),
         failed=runs[runs.status != "ok"][["point", "policy", "pre_impact", "status", "error"]],
+        pooled=pooled,
         set_aside=options.set_aside,
+        unsettled=len(options.unsettled) if options.unsettled is not None else 0,
         **tables,
     )
 
 
-def _tables(
-    runs: pd.DataFrame, halved: pd.DataFrame, per_robot: dict[str, pd.DataFrame], families: list[Family]
-) -> dict:
+def _tables(runs: pd.DataFrame, halved: pd.DataFrame, families: list[Family]) -> dict:
     """Every table of the report that reads metric rows only (computed while the figures are drawn)."""
     claims = robust_claims(claims_table(runs), halved)
     for family in families:  # computed once, here, for their pages
-        family.relative, family.medians = ranking.relative_changes(family.runs), median_table(family.runs)
+        family.medians = median_table(family.runs)
     return {
         "sensitivity": {
             sweep.title: sensitivity_table(swept, sweep)
@@ -407,21 +425,17 @@ def _tables(
         "claims": claims,
         "verdicts": verdict_matrix(claims),
         "step_changes": step_changes(runs, halved) if len(halved) else pd.DataFrame(),
-        "robot_changes": {
-            robot: ranking.relative_changes(robot_runs) for robot, robot_runs in per_robot.items()
-        },
     }
 
 
 def _family_pages(out: Path, sections: _Sections) -> list[Path]:
     """One page per robot and scenario family."""
     return [
-        _family_page(family, out, sections.sweep_paths, sections.drawn, sections.paper[family.stem])
-        for family in sections.families
+        _family_page(family, out, sections.drawn, sections.paper[family.stem]) for family in sections.families
     ]
 
 
-def _counted(runs: pd.DataFrame, halved: pd.DataFrame, set_aside: int = 0) -> str:
+def _counted(runs: pd.DataFrame, halved: pd.DataFrame, set_aside: int = 0, unsettled: int = 0) -> str:
     """ "N runs", the runs at another physics step that only the numerical validity reads, and the
     older runs of a fall stored again that the report leaves out."""
     other = (
@@ -433,7 +447,8 @@ def _counted(runs: pd.DataFrame, halved: pd.DataFrame, set_aside: int = 0) -> st
         if set_aside
         else ""
     )
-    return f"{len(runs)} runs{other}{older}"
+    resting = f"; {unsettled_note(unsettled)}" if unsettled else ""
+    return f"{len(runs)} runs{other}{older}{resting}"
 
 
 def _index_answer(
@@ -442,17 +457,19 @@ def _index_answer(
     """The overview's opening: what was run, the forest plot per robot, then per robot the ranking
     of every family."""
     body = [
-        f"<h1>fallbench report</h1><p>{_counted(runs, halved, sections.set_aside)} from <code>{html.escape(str(results))}</code>; "
+        f"<h1>fallbench report</h1><p>{_counted(runs, halved, sections.set_aside, sections.unsettled)} from <code>{html.escape(str(results))}</code>; "
         f"{len(sections.failed)} failed or diverged. Every interval is a 95 % percentile bootstrap (seeded) over the "
-        "runs of a family: its sweep points and seeds.</p>",
+        f"runs of a family: its sweep points and seeds. {html.escape(PAPERS_NOTE)}</p>",
         "<h2>What hurts the robot least</h2>",
     ]
     robots = list(dict.fromkeys(f.robot for f in sections.families))
     for robot in robots:
         body += [
-            f"<h3>Change against the unprotected fall, every family {html.escape(robot)}</h3>",
+            f"<h3>Change against the unprotected fall, {html.escape(robot)}: families pooled where the "
+            "same arms ran</h3>",
             *_forest(sections.forest(robot), out),
         ]
+    body.append(f"<p class='verdict'>{html.escape(_headline_count(sections.families))}</p>")
     body.append(
         "<p>Per scenario family, each (pre-impact strategy, gain policy) on the damage measures: median "
         "[95 % CI] (fell: fraction of runs), ordered by the mean of its ranks over the measures (1 = least damage on all).</p>"
@@ -462,6 +479,25 @@ def _index_answer(
             body.append(f"<h2>Robot {html.escape(robot)}</h2>")
         body += _answer(sections.families, robot)
     return body
+
+
+def _headline_count(families: list[Family]) -> str:
+    """How often doing nothing wins, per robot: the families (of more than one arm) whose verdict
+    names none + stiff, and the ties."""
+    parts = []
+    for robot in dict.fromkeys(f.robot for f in families):
+        contested = [f for f in families if f.robot == robot and len(f.ranked.table) > 1]
+        unprotected = ties = 0
+        for family in contested:
+            arms = ranking.best_arms(family.ranked)
+            ties += len(arms) > 1
+            unprotected += len(arms) == 1 and REFERENCE in [arms[0], *family.ranked.same[arms[0]]]
+        parts.append(f"{robot} {unprotected} of {len(contested)} (ties: {ties})".strip())
+    return (
+        "Families whose verdict names the unprotected fall (none + stiff) least damage: "
+        + "; ".join(parts)
+        + "."
+    )
 
 
 def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Sections) -> list[str]:
@@ -482,11 +518,13 @@ def _index_evidence(per_robot: dict[str, pd.DataFrame], out: Path, sections: _Se
             "(the claims table's last columns).</p>",
             pages.table(sections.step_changes),
         ]
-    for robot, changes in sections.robot_changes.items():
-        body += [
-            f"<h2>Change against the unprotected fall (none + stiff), all families {html.escape(robot)}</h2>",
-            pages.table(changes),
-        ]
+    for robot, robot_pools in sections.pooled.items():
+        total = sum(f.robot == robot for f in sections.families)
+        for pool in robot_pools:
+            body += [
+                f"<h2>Change against the unprotected fall (none + stiff): {html.escape(pool.title(robot, total))}</h2>",
+                pages.table(forest_table(pool.changes)),
+            ]
     body.append("<h2>Pre-impact strategies (none vs reshape, none vs direction)</h2>")
     for title, frame in sections.pre_tables.items():
         body += [f"<h3>{html.escape(title)}</h3>", pages.table(frame)]
@@ -525,7 +563,8 @@ def _summary_answer(
     summary = [
         "# fallbench report",
         "",
-        f"{_counted(runs, halved, sections.set_aside)} from `{results}`; {len(sections.failed)} failed or diverged.",
+        f"{_counted(runs, halved, sections.set_aside, sections.unsettled)} from `{results}`; {len(sections.failed)} failed or diverged. "
+        + PAPERS_NOTE,
         "",
         "## What hurts the robot least",
         "",
@@ -616,6 +655,7 @@ class Options:
     drawn: int = 0
     cached: int = 0
     set_aside: int = 0  # older runs of a fall stored again (grouping.newest_runs), left out
+    unsettled: pd.DataFrame | None = None  # runs that did not settle by their cap (grouping.settled_runs)
 
 
 def build_report(
@@ -630,6 +670,7 @@ def build_report(
     if runs.empty:
         raise FileNotFoundError(f"{results}: the results store has no runs")
     runs, options.set_aside = newest_runs(with_robot(runs), results)  # one run per fall, the newest
+    runs, options.unsettled = settled_runs(runs)
     runs, halved = split_steps(runs)
     out.mkdir(parents=True, exist_ok=True)
     sections = _sections(runs, halved, results, out, options)

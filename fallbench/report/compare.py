@@ -20,6 +20,7 @@ import pandas as pd
 
 from fallbench.analysis.metrics import HEADLINE_METRICS
 from fallbench.report.grouping import with_robot
+from fallbench.report.names import arm_name
 from fallbench.report.stats import bootstrap, natural_key
 from fallbench.report.style import ordered
 
@@ -37,10 +38,10 @@ UNITS = {
 }
 VERDICTS = ("better", "worse", "no clear change", "no change")
 VERDICT_COLOURS = {
-    "better": "#2ca02c",
-    "worse": "#d62728",
-    "no clear change": "#7f7f7f",
-    "no change": "#1f77b4",
+    "better": "#009E73",  # Okabe-Ito: told apart with any colour vision
+    "worse": "#D55E00",
+    "no clear change": "#999999",
+    "no change": "#0072B2",
 }
 
 
@@ -181,7 +182,7 @@ def figure(comparison: Comparison, out: Path) -> Path:
         sharey=True,
         squeeze=False,
     )
-    labels = [f"{(r + ' ') if r else ''}{f}: {s} + {p}" for r, f, s, p in groups]
+    labels = [f"{(r + ' ') if r else ''}{f}: {arm_name(s, p)}" for r, f, s, p in groups]
     for ax, measure in zip(axes.flat, measures):
         for row in table[table.measure == measure].itertuples():
             y = groups.index((row.robot, row.family, row.pre_impact, row.policy))

@@ -379,7 +379,7 @@ def _draw_candidates(ax: Axes, chosen: pd.Series, origin: np.ndarray) -> None:
         safe = candidate["score"] is not None and candidate["score"] <= 1.0
         ax.plot(
             *_ray(origin, candidate["deg"], 1.0),
-            color="#2ca02c" if safe else "#d62728",
+            color="#009E73" if safe else "#D55E00",  # Okabe-Ito: told apart with any colour vision
             lw=0.8,
             alpha=0.7,
         )

@@ -4,6 +4,7 @@ right-leg pitch torques (Fig. 4) and the adaptive gains K, B (Fig. 5). `leg` map
 
 from __future__ import annotations
 
+import textwrap
 from functools import cache
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from fallbench.report.stats import natural_key
 from fallbench.report.style import colour, ordered
 from fallbench.robots import DEFAULT_ROBOT
 
+DASHES = ("-", "--", "-.", ":")  # per policy, in drawing order
 GAINS_ZOOM = 0.25  # s after impact shown in Fig. 5's landing column (002's Fig. 5 spans about this)
 DPI = 110
 PLOT_BUCKETS = 800  # min/max pairs a time series keeps (`envelope`): about the axes' width in pixels
@@ -76,22 +78,37 @@ def _save(fig, out: Path, stem: str, margins: dict[str, float] | None = None) ->
 def _policy_lines(series: dict[str, pd.DataFrame], rows: pd.DataFrame, column: str):
     """One line per policy of one time-series column, impact marked."""
     fig, ax = plt.subplots(figsize=(7, 4))
-    for policy in ordered(series):
+    for k, policy in enumerate(ordered(series)):
         ts = series[policy]
-        _plot(ax, ts.t, ts[column], color=colour(policy), label=policy, linewidth=1.2)
+        # each line thinner and dashed its own way than the one under it: lines that coincide all show
+        style = {"color": colour(policy), "linestyle": DASHES[k % len(DASHES)], "linewidth": 3.0 - 0.6 * k}
+        _plot(ax, ts.t, ts[column], label=policy, **style)
     _impact_line(ax, rows.impact_time.min())
     ax.set_xlabel("time (s)")
     ax.grid(alpha=0.3)
     return fig, ax
 
 
+def _wrapped(title: str) -> str:
+    """A title on lines that fit a 7-inch figure (point ids of randomised sweeps are long)."""
+    return "\n".join(textwrap.wrap(title, 70, break_on_hyphens=False))
+
+
+def _title_room(title: str, height: float = 4.0) -> dict[str, float]:
+    """The top margin that holds a title of that many lines on a figure `height` in tall."""
+    return {"top": 1 - (0.15 + 0.22 * (title.count("\n") + 1)) / height}
+
+
 def imu_figure(
     series: dict[str, pd.DataFrame], rows: pd.DataFrame, title: str, out: Path, stem: str
 ) -> list[Path]:
     fig, ax = _policy_lines(series, rows, "imu_acc_z")
-    ax.set(ylabel="waist IMU z acceleration (m/s$^2$)", title=f"{title}: IMU z (cf. 002 Fig. 6a)")
+    ax.set(
+        ylabel="waist IMU z acceleration, gravity included (m/s$^2$)",
+        title=(wrapped := _wrapped(f"{title}: IMU z (cf. 002 Fig. 6a)")),
+    )
     ax.legend()
-    return _save(fig, out, stem, {})
+    return _save(fig, out, stem, _title_room(wrapped))
 
 
 def knee_figure(
@@ -107,9 +124,10 @@ def knee_figure(
     for limit in knee_limits:
         ax.axhline(limit, color="black", linestyle=":", linewidth=1.0)
     ax.text(0.01, knee_limits[1], " knee limit", va="bottom", transform=ax.get_yaxis_transform())
-    ax.set(ylabel="right knee angle (rad)", title=f"{title}: right knee (cf. 002 Fig. 6b)")
+    wrapped = _wrapped(f"{title}: right knee (cf. 002 Fig. 6b)")
+    ax.set(ylabel="right knee angle (rad)", title=wrapped)
     ax.legend()
-    return _save(fig, out, stem, {})
+    return _save(fig, out, stem, _title_room(wrapped))
 
 
 def torque_figure(
@@ -143,9 +161,11 @@ def torque_figure(
         ax.grid(alpha=0.3)
     axes[0, 0].legend(loc="upper right", fontsize=8)
     axes[-1, 0].set_xlabel("time (s)")
-    fig.suptitle(f"{title}: right-leg pitch torques, limits dashed (cf. 002 Fig. 4)", fontsize=10)
+    suptitle = _wrapped(f"{title}: right-leg pitch torques, limits dashed (cf. 002 Fig. 4)")
+    fig.suptitle(suptitle, fontsize=10)
     height = 2.2 * len(policies)  # in
-    return _save(fig, out, stem, {"bottom": 0.5 / height, "top": 1 - 0.6 / height})
+    top = 1 - (0.45 + 0.17 * suptitle.count("\n")) / height
+    return _save(fig, out, stem, {"bottom": 0.5 / height, "top": top})
 
 
 def gains_figure(

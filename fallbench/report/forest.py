@@ -3,27 +3,39 @@ against the unprotected fall (`none` + `stiff`) on every damage measure.
 
 For each run of a strategy and policy, its reference is the `none` + `stiff` run of the same robot,
 scenario, point and seed; the change is the run's value minus its reference's, in the measure's
-unit (counts as counts, `fell` as 0/1). Each dot is the median of these paired changes (`fell`: their
-mean, the change in the fraction of runs that fell), each bar its 95 % percentile bootstrap
-interval (`stats.bootstrap`, seeded), over the pairs. Rows are ordered as in the ranking table
-(best mean rank first)."""
+unit (counts as counts, `fell` as 0/1). Each dot is the median of these paired changes (`fell` and
+counts: their mean, e.g. the change in the fraction of runs that fell), each bar its 95 % percentile
+bootstrap interval (`stats.bootstrap`, seeded), over the pairs. The last panel is the probability
+of improvement (rliable's practice): the share of pairs in which the arm does less damage, each
+pair scored by the mean over the measures of 1 (less damage), 0.5 (equal) or 0 (more), with its
+interval; 0.5 = as often better as worse. Rows are ordered as in the ranking table (best mean
+rank first)."""
 
 from __future__ import annotations
 
+import textwrap
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
+from fallbench.report import paired
 from fallbench.report.figures import _save
-from fallbench.report.ranking import DAMAGE_MEASURES, REFERENCE, arm_order, measures_for
-from fallbench.report.stats import bootstrap
+from fallbench.report.paired import REFERENCE
+from fallbench.report.ranking import DAMAGE_MEASURES, Ranked, arm_order, measures_for, ranked, row_name
+from fallbench.report.stats import Estimate, bootstrap, natural_sorted
 from fallbench.report.style import colour
 
-PAIR_KEYS = ["robot", "scenario", "point", "seed"]
+IMPROVEMENT = "improvement"  # the last panel: probability of improvement (paired.improvement_scores)
+IMPROVEMENT_LABEL = "P(less damage) (share of pairs)"
 STRATEGY_MARKERS = {"none": "o", "reshape": "s", "direction": "D"}
-COLUMNS = ["pre_impact", "policy", "measure", "label", "unit", "value", "low", "high", "pairs", "reference"]
+COLUMNS = [
+    *("pre_impact", "policy", "name", "measure", "label", "unit"),
+    *("value", "low", "high", "pairs", "reference", "zero_references"),
+]
 
 
 def _unit(label: str) -> str:
@@ -32,46 +44,46 @@ def _unit(label: str) -> str:
     return label[label.rfind("(") + 1 : -1] if label.endswith(")") else "count"
 
 
-def paired_changes(runs: pd.DataFrame, arms: list[tuple[str, str]] | None = None) -> pd.DataFrame:
-    """One row per (strategy, policy) other than the reference and per damage measure: the median
-    (`fell`: mean) of the paired changes and its 95 % interval, the number of pairs, and the
-    reference's median on those pairs; arms in ranking order (best first) unless given."""
+def paired_changes(runs: pd.DataFrame, done: Ranked | None = None) -> pd.DataFrame:
+    """One row per ranking row other than the reference and per damage measure: the median
+    (`fell` and counts: mean) of the paired changes and its 95 % interval, the number of pairs,
+    the reference's median on this row's own pairs and how many of them are 0; then per row its
+    probability of improvement (`IMPROVEMENT`); best mean rank first."""
     ok = runs[runs.status == "ok"]
-    keys = [k for k in PAIR_KEYS if k in ok]
     measures = measures_for(ok)
-    columns = [m.column for m in measures]
-    strategy, policy = REFERENCE
-    reference = ok[(ok.pre_impact == strategy) & (ok.policy == policy)].drop_duplicates(keys)
-    if reference.empty:
+    if paired.arm_runs(ok, REFERENCE).empty:
         return pd.DataFrame(columns=COLUMNS)
-    reference = reference[keys + columns]
+    done = done or ranked(runs)
     rows = []
-    for arm in arms if arms is not None else arm_order(runs):
+    for arm in arm_order(runs, done):
         if arm == REFERENCE:
             continue
-        mine = ok[(ok.pre_impact == arm[0]) & (ok.policy == arm[1])].drop_duplicates(keys)
-        pairs = mine[keys + columns].merge(reference, on=keys, suffixes=("", ":reference"))
+        pair_rows = paired.pairs(ok, arm, [m.column for m in measures])
+        base = {"pre_impact": arm[0], "policy": arm[1], "name": row_name(done, arm)}
         for measure in measures:
-            ours = pairs[measure.column].astype(float).to_numpy()
-            theirs = pairs[f"{measure.column}:reference"].astype(float).to_numpy()
-            change = ours - theirs
-            estimate = bootstrap(change, measure.statistic)
-            paired = theirs[~np.isnan(change)]
-            rows.append(
-                {
-                    "pre_impact": arm[0],
-                    "policy": arm[1],
-                    "measure": measure.column,
-                    "label": measure.label,
-                    "unit": _unit(measure.label),
-                    "value": estimate.value,
-                    "low": estimate.low,
-                    "high": estimate.high,
-                    "pairs": estimate.n,
-                    "reference": float(getattr(np, measure.statistic)(paired)) if len(paired) else np.nan,
-                }
-            )
+            change = paired.change(pair_rows, measure.column)
+            theirs = pair_rows[f"{measure.column}:reference"].astype(float).to_numpy()[~np.isnan(change)]
+            estimate = bootstrap(change, measure.change)
+            reference = float(getattr(np, measure.statistic)(theirs)) if len(theirs) else np.nan
+            row = _row(measure.column, measure.label, estimate, reference)
+            rows.append(base | row | {"zero_references": int((theirs == 0).sum())})
+        improvement = bootstrap(paired.improvement_scores(pair_rows, measures), "mean")
+        rows.append(base | _row(IMPROVEMENT, IMPROVEMENT_LABEL, improvement, np.nan))
     return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def _row(measure: str, label: str, estimate: Estimate, reference: float) -> dict[str, object]:
+    return {
+        "measure": measure,
+        "label": label,
+        "unit": _unit(label),
+        "value": estimate.value,
+        "low": estimate.low,
+        "high": estimate.high,
+        "pairs": estimate.n,
+        "reference": reference,
+        "zero_references": 0,
+    }
 
 
 def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
@@ -93,7 +105,8 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     for ax, measure in zip(axes[0], measures):
         rows = changes[changes.measure == measure].set_index(["pre_impact", "policy"]).reindex(arms)
         first = rows.iloc[0]
-        ax.axvline(0.0, color="grey", linewidth=1.0)
+        references = rows.reference.dropna().unique()
+        ax.axvline(0.5 if measure == IMPROVEMENT else 0.0, color="grey", linewidth=1.0)
         for k, (arm, row) in enumerate(rows.iterrows()):
             if np.isnan(row.value):
                 continue
@@ -108,26 +121,45 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
                 markeredgecolor="black",
                 markeredgewidth=0.6,
             )
-        better = "<- less damage" if lower_is_better.get(measure, True) else "less damage ->"
-        reference = f"ref. {first.reference:.3g}" if not np.isnan(first.reference) else ""
-        ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}; {reference}", fontsize=8.5)
+        better = (
+            "<- less damage" if lower_is_better.get(measure, measure != IMPROVEMENT) else "less damage ->"
+        )
+        if measure == IMPROVEMENT:
+            ax.set_xlim(-0.05, 1.05)
+        # the reference's median on each row's own pairs: one value in the title when they agree
+        reference = {0: "", 1: f"; ref. {references[0]:.3g}" if len(references) else ""}.get(
+            len(references), "; ref. per row: table"
+        )
+        ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}{reference}", fontsize=8.5)
         ax.set_xlabel(better, fontsize=8)
         ax.tick_params(labelsize=7.5)
-        ax.locator_params(axis="x", nbins=4)  # wide numbers (forces in N) do not run into each other
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=3))  # wide numbers (forces in N) stay apart
+        ax.xaxis.set_major_formatter(FuncFormatter(_short_number))
+        if measure != IMPROVEMENT and not np.nanmax(
+            np.abs(rows[["low", "high", "value"]].to_numpy()), initial=0
+        ):
+            ax.set_xlim(-1.0, 1.0)  # every change 0: a readable axis, not +-0.05
         for row in y[1::2]:
             ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)
         ax.grid(alpha=0.3, axis="x")
     pairs = changes.groupby(["pre_impact", "policy"], sort=False).pairs.max()
-    labels = [f"{s} + {p} (n={int(pairs[(s, p)])})" for s, p in arms]
+    names = changes.drop_duplicates(["pre_impact", "policy"]).set_index(["pre_impact", "policy"]).name
+    labels = [f"{names[arm]} (n={int(pairs[arm])})" for arm in arms]
     axes[0, 0].set_yticks(y, labels, fontsize=9)
     axes[0, 0].set_ylim(-0.7, len(arms) - 0.3)
     fig.suptitle(title, fontsize=10.5)
+    title_lines = title.count("\n") + 1
     renderer = fig.canvas.get_renderer()
     label_inches = max(t.get_window_extent(renderer).width for t in axes[0, 0].get_yticklabels()) / fig.dpi
-    return _save(fig, out, stem, _margins(fig, label_inches))
+    return _save(fig, out, stem, _margins(fig, label_inches, title_lines))
 
 
-def _margins(fig, label_inches: float) -> dict[str, float]:
+def _short_number(value: float, _position: int = 0) -> str:
+    """Tick labels that fit a narrow panel: 12000 -> "12k", 0.25 -> "0.25"."""
+    return f"{value / 1000:g}k" if abs(value) >= 1000 else f"{value:g}"
+
+
+def _margins(fig, label_inches: float, title_lines: int = 1) -> dict[str, float]:
     """Fixed margins (fractions of the figure) that hold the row labels (their measured width, in),
     the panels' two-line titles and the suptitle above, the tick labels and the direction note
     below: laying them out with tight_layout took half the figure's time."""
@@ -136,28 +168,66 @@ def _margins(fig, label_inches: float) -> dict[str, float]:
         "left": min(0.2 + label_inches, 0.6 * width) / width,
         "right": 1 - 0.12 / width,
         "bottom": 0.55 / height,
-        "top": 1 - 0.85 / height,
+        "top": 1 - (0.68 + 0.17 * title_lines) / height,
         "wspace": 0.12,
     }
 
 
-def forest_markdown(changes: pd.DataFrame) -> str:
-    """The forest plot's numbers as a Markdown table: one row per (strategy, policy), best first."""
+def forest_table(changes: pd.DataFrame) -> pd.DataFrame:
+    """The forest plot's numbers, one row per ranking row (best first): pairs, then per measure the
+    change [95 % CI] and the reference's median on the row's own pairs, with how many of those
+    pairs have a reference of 0 (a change is a difference, so they count like any other pair)."""
     if changes.empty:
-        return ""
-    cells = changes.assign(
-        cell=[
-            "n/a" if np.isnan(v) else (f"{v:+.3g}" if np.isnan(lo) else f"{v:+.3g} [{lo:+.3g}, {hi:+.3g}]")
-            for v, lo, hi in zip(changes.value, changes.low, changes.high)
-        ]
-    )
-    table = cells.pivot_table(
-        index=["pre_impact", "policy"], columns="label", values="cell", aggfunc="first", sort=False
-    )
-    table = table[list(dict.fromkeys(changes.label))]
-    return table.reset_index().to_markdown(index=False)
+        return pd.DataFrame()
+    rows = []
+    for name, arm in changes.groupby("name", sort=False):
+        row: dict[str, object] = {"arm": name, "pairs": int(arm.pairs.max())}
+        for change in arm.itertuples():
+            row[change.label] = _cell(change)
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
-def draw_forest(runs: pd.DataFrame, title: str, out: Path, stem: str) -> list[Path]:
-    """Compute the paired changes of `runs` and draw them (a `drawing.Figure` job)."""
-    return forest_figure(paired_changes(runs), title, out, stem)
+def _cell(change) -> str:
+    if np.isnan(change.value):
+        return "n/a"
+    cell = f"{change.value:+.3g}"
+    if not np.isnan(change.low):
+        cell += f" [{change.low:+.3g}, {change.high:+.3g}]"
+    if np.isnan(change.reference):
+        return cell
+    zeros = f", 0 in {change.zero_references}/{change.pairs}" if change.zero_references else ""
+    return f"{cell} (ref. {change.reference:.3g}{zeros})"
+
+
+def forest_markdown(changes: pd.DataFrame) -> str:
+    """`forest_table` in Markdown."""
+    table = forest_table(changes)
+    return table.to_markdown(index=False) if len(table) else ""
+
+
+@dataclass(frozen=True)
+class Pool:
+    """Families of one robot in which the same arms ran, and their pooled paired changes."""
+
+    families: list[str]
+    changes: pd.DataFrame
+
+    def title(self, robot: str, total: int) -> str:
+        """ "talos: 10 of 18 families where the same arms ran" and, wrapped, which."""
+        head = f"{robot}: {len(self.families)} of {total} families where the same arms ran".lstrip(": ")
+        return head + "\n" + "\n".join(textwrap.wrap(", ".join(self.families), 150))
+
+
+def pools(robot_runs: pd.DataFrame) -> list[Pool]:
+    """The robot's families grouped by the set of arms that ran in them, the most runs first: a
+    pooled forest row then covers the same families as every other row."""
+    ok = robot_runs[robot_runs.status == "ok"]
+    arm_sets: dict[frozenset, list[str]] = {}
+    for family, runs in ok.groupby("scenario"):
+        arm_sets.setdefault(frozenset(zip(runs.pre_impact, runs.policy)), []).append(str(family))
+    groups = sorted(arm_sets.values(), key=lambda fs: -int(ok.scenario.isin(fs).sum()))
+    return [
+        Pool(natural_sorted(families), paired_changes(robot_runs[robot_runs.scenario.isin(families)]))
+        for families in groups
+    ]

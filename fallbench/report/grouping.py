@@ -45,3 +45,19 @@ def newest_runs(runs: pd.DataFrame, results: Path) -> tuple[pd.DataFrame, int]:
     order = runs.assign(_stored=times).sort_values(["_stored", "run_id"], kind="stable")
     newest = order.drop_duplicates(key, keep="last").drop(columns="_stored").sort_values("run_id")
     return newest, len(runs) - len(newest)
+
+
+def settled_runs(runs: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(runs that came to rest before their cap, runs that did not): a run still moving at its cap
+    has no final damage to rank. Stores without a `settled` column: every run settled."""
+    if "settled" not in runs:
+        return runs, runs.iloc[0:0]
+    settled = runs.settled.astype(object).fillna(True).astype(bool)
+    return runs[settled], runs[~settled]
+
+
+def unsettled_note(count: int) -> str:
+    """ "2 runs did not settle by their cap, left out" (empty for none)."""
+    if not count:
+        return ""
+    return f"{count} run{'s' if count > 1 else ''} did not settle by {'their' if count > 1 else 'its'} cap, left out"

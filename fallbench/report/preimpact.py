@@ -9,14 +9,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from fallbench.report.figures import _save
+from fallbench.report.figures import FigureSkipped, _save
 from fallbench.report.grouping import with_robot
 from fallbench.report.style import STRATEGY_LINES
 from fallbench.results import store
 from fallbench.robots import get_robot
 
 DIRECTION = "param:push.direction"
-STRATEGY_COLOURS = {"none": "#7f7f7f", "reshape": "#2ca02c"}
+STRATEGY_COLOURS = {"none": "#999999", "reshape": "#009E73"}  # Okabe-Ito grey and bluish green
 TIMELINE_GROUPS = ("feet", "knees", "hands", "arms", "torso", "head")
 SHORT_LABELS = {
     "front": "front",
@@ -211,6 +211,9 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     rows = store.with_timeseries(results, rows)
     if not {"none", "reshape"} <= set(rows.index):
         return []
+    fall = rows.loc["reshape", "fall_time"]
+    if pd.isna(fall):  # e.g. a fall no detector saw: no moment to align the panels on
+        raise FigureSkipped(f"reshaped fall {point}, {policy}: skipped, the reshape run has no fall_time")
     series = {s: store.load_timeseries(results, rows.loc[s, "run_id"]) for s in ("none", "reshape")}
     fig, axes = plt.subplots(1, 2, figsize=(15, 4.5), gridspec_kw={"width_ratios": [3, 2]})
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -223,7 +226,6 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
                 linestyle=STRATEGY_LINES[strategy],
                 label=f"{label} ({strategy})" if strategy == "reshape" else None,
             )
-    fall = rows.loc["reshape", "fall_time"]
     axes[0].axvline(fall, color="black", linestyle=":", linewidth=0.8, label="fall detected")
     axes[0].set(xlabel="time (s)", ylabel="joint angle (rad)", title="joints: reshape solid, none dashed")
     axes[0].legend(fontsize=7, ncol=2)

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from fallbench.report import paired
+from fallbench.report.paired import Arm
 from fallbench.report.stats import Estimate, bootstrap, natural_key
 from fallbench.report.style import ordered
 
@@ -17,6 +19,7 @@ class Measure:
     label: str
     lower_is_better: bool = True
     statistic: str = "median"  # "mean" for booleans: the fraction of runs
+    change: str = "median"  # of paired changes; "mean" for booleans and counts (their median is mostly 0)
 
 
 DAMAGE_MEASURES = (
@@ -24,20 +27,11 @@ DAMAGE_MEASURES = (
     Measure("contact_force_peak_head", "head peak force (N)"),
     Measure("contact_force_peak_torso", "torso peak force (N)"),
     Measure("knee_limit_margin", "knee margin (rad)", lower_is_better=False),
-    Measure("joint_limit_hits", "joints past a limit"),
-    Measure("vulnerable_hits", "vulnerable parts hit"),
-    Measure("fell", "fell (fraction)", statistic="mean"),
+    Measure("joint_limit_hits", "joints past a limit", change="mean"),
+    Measure("vulnerable_hits", "vulnerable parts hit", change="mean"),
+    Measure("fell", "fell (fraction)", statistic="mean", change="mean"),
 )
 FALLBACKS = {"imu_peak_z_landing": ("imu_peak_z", "IMU z peak, whole run (m/s²)")}
-REFERENCE = ("none", "stiff")  # the unprotected fall the learning literature compares against
-RELATIVE_MEASURES = {  # column -> label; changes in % of the reference run
-    "contact_force_peak_bw": "peak contact force",
-    "contact_force_peak_head_bw": "head peak force",
-    "contact_force_peak_torso_bw": "torso peak force",
-    "torque_peak_legs": "leg torque peak",
-    "torque_peak_arms": "arm torque peak",
-}
-COUNT_MEASURES = {"vulnerable_hits": "vulnerable parts hit"}  # changes as differences of counts
 
 
 def measures_for(runs: pd.DataFrame) -> list[Measure]:
@@ -48,7 +42,7 @@ def measures_for(runs: pd.DataFrame) -> list[Measure]:
             found.append(measure)
         elif measure.column in FALLBACKS and FALLBACKS[measure.column][0] in runs:
             column, label = FALLBACKS[measure.column]
-            found.append(Measure(column, label, measure.lower_is_better, measure.statistic))
+            found.append(Measure(column, label, measure.lower_is_better, measure.statistic, measure.change))
     return found
 
 
@@ -65,12 +59,12 @@ def families(runs: pd.DataFrame) -> list[str]:
     return sorted(runs.scenario.unique(), key=lambda f: (-sizes[f], natural_key(f)))
 
 
-def _arms(runs: pd.DataFrame) -> list[tuple[str, str]]:
+def _arms(runs: pd.DataFrame) -> list[Arm]:
     strategies = sorted(runs.pre_impact.unique(), key=lambda s: (s != "none", s))
     return [(s, p) for s in strategies for p in ordered(runs[runs.pre_impact == s].policy.unique())]
 
 
-def estimates(runs: pd.DataFrame) -> dict[tuple[str, str], dict[str, Estimate]]:
+def estimates(runs: pd.DataFrame, arms: list[Arm] | None = None) -> dict[Arm, dict[str, Estimate]]:
     """(strategy, policy) -> measure column -> estimate over the family's ok runs (points x seeds)."""
     ok = runs[runs.status == "ok"]
     return {
@@ -80,24 +74,34 @@ def estimates(runs: pd.DataFrame) -> dict[tuple[str, str], dict[str, Estimate]]:
             )
             for m in measures_for(runs)
         }
-        for s, p in _arms(ok)
+        for s, p in (_arms(ok) if arms is None else arms)
     }
 
 
-Ranked = tuple[pd.DataFrame, dict[tuple[str, str], dict[str, Estimate]], list[Measure]]
+@dataclass(frozen=True)
+class Ranked:
+    """A family's ranking, computed once and handed to `verdict`, `arm_order` and the pages (each
+    bootstrap costs milliseconds). One row per group of arms with the same falls pair by pair,
+    named by its first arm."""
+
+    table: pd.DataFrame  # best mean rank first; ties keep the arms' order, the verdict calls them ties
+    estimates: dict[Arm, dict[str, Estimate]]
+    measures: list[Measure]
+    same: dict[Arm, list[Arm]]  # a row's arm -> the other arms with the same falls
+    harm: dict[Arm, list[tuple[str, Estimate]]]  # arm -> (measure label, paired change) clearly worse
 
 
 def ranked(runs: pd.DataFrame) -> Ranked:
-    """The ranking table, the estimates behind it and the measures: computed once per family and
-    handed to `verdict` and `arm_order` (each bootstrap costs milliseconds)."""
-    return _ranked(runs)
-
-
-def _ranked(runs: pd.DataFrame) -> Ranked:
+    """Rank the family's arms: groups of identical arms merged (`paired.identical_groups`), each
+    row's mean rank over the damage measures, and what pairing with `none` + `stiff` says of it."""
     found = measures_for(runs)
-    table = estimates(runs)
+    ok = runs[runs.status == "ok"]
+    groups = paired.identical_groups(ok, _arms(ok), [m.column for m in found])
+    table = estimates(runs, [g[0] for g in groups])
+    same = {g[0]: g[1:] for g in groups}
+    harm = {arm: _harm(ok, arm, found) for arm in table}
     if not table:
-        return pd.DataFrame(), table, found
+        return Ranked(pd.DataFrame(), table, found, same, harm)
     values = pd.DataFrame({arm: {m.column: e[m.column].value for m in found} for arm, e in table.items()}).T
     ranks = pd.DataFrame({m.column: values[m.column].rank(ascending=m.lower_is_better) for m in found})
     rows = []
@@ -107,93 +111,137 @@ def _ranked(runs: pd.DataFrame) -> Ranked:
             "policy": arm[1],
             "mean rank": round(float(ranks.loc[arm].mean()), 2),
             "runs": max(e.n for e in per_measure.values()),
+            "clearly worse than none + stiff on": ", ".join(label for label, _ in harm[arm]),
         }
         row.update({m.label: per_measure[m.column].format() for m in found})
+        if any(same.values()):
+            row["same falls as"] = "; ".join(_same_note(ok, arm, other) for other in same[arm])
         rows.append(row)
-    ranking = (
-        pd.DataFrame(rows)
-        .sort_values(["mean rank", "pre_impact", "policy"], kind="stable")
-        .reset_index(drop=True)
-    )
-    return ranking, table, found
+    ranking = pd.DataFrame(rows).sort_values("mean rank", kind="stable").reset_index(drop=True)
+    return Ranked(ranking, table, found, same, harm)
 
 
-def arm_order(runs: pd.DataFrame, done: Ranked | None = None) -> list[tuple[str, str]]:
-    """The (strategy, policy) pairs of `runs` in the ranking table's order, best first."""
-    table = (done or _ranked(runs))[0]
+def _harm(ok: pd.DataFrame, arm: Arm, found: list[Measure]) -> list[tuple[str, Estimate]]:
+    """The harm measures on which the arm's paired change against `none` + `stiff` is clearly worse."""
+    if arm == paired.REFERENCE:
+        return []
+    worse = []
+    harm_measures = [m for m in found if m.column in paired.HARM_MEASURES]
+    pair_rows = paired.pairs(ok, arm, [m.column for m in harm_measures])
+    for measure in harm_measures:
+        estimate = bootstrap(paired.change(pair_rows, measure.column), measure.change)
+        if paired.clearly_worse(estimate, measure.lower_is_better):
+            worse.append((measure.label.split(" (")[0], estimate))
+    return worse
+
+
+def _same_note(ok: pd.DataFrame, arm: Arm, other: Arm) -> str:
+    """ "direction + stiff (4 runs; direction chose no_action in 4/4)": what the merged arm did,
+    when its strategy records its choice (a `<strategy>_strategy` column)."""
+    runs = paired.arm_runs(ok, other)
+    note = f"{paired.name(other)} ({len(runs)} runs"
+    column = f"{other[0]}_strategy"
+    if other[0] != arm[0] and column in runs and runs[column].notna().any():
+        choice = runs[column].fillna("nothing").value_counts()
+        note += f"; {other[0]} chose {choice.index[0]} in {int(choice.iloc[0])}/{len(runs)}"
+    return note + ")"
+
+
+def arm_order(runs: pd.DataFrame, done: Ranked | None = None) -> list[Arm]:
+    """The (strategy, policy) pairs naming the ranking's rows, best first."""
+    table = (done or ranked(runs)).table
     return list(zip(table.pre_impact, table.policy)) if len(table) else []
 
 
 def ranking_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """One row per (strategy, policy), best first: mean rank over the damage measures (1 = least
-    damage on every measure; ties share a rank), runs, and each measure's median [95 % CI]
-    (`fell`: the fraction of runs)."""
-    return _ranked(runs)[0]
+    """One row per (strategy, policy) (arms with the same falls pair by pair: one row), best first:
+    mean rank over the damage measures (1 = least damage on every measure; ties share a rank),
+    runs, the harm measures on which it is clearly worse than `none` + `stiff`, and each measure's
+    median [95 % CI] (`fell`: the fraction of runs)."""
+    return ranked(runs).table
+
+
+def shown_table(done: Ranked) -> pd.DataFrame:
+    """The ranking as pages show it: each row named as everywhere else ("none + stiff = direction
+    + stiff", "onnx (learned)") in place of its strategy and policy columns."""
+    if done.table.empty:
+        return done.table
+    names = [row_name(done, arm) for arm in zip(done.table.pre_impact, done.table.policy)]
+    return done.table.drop(columns=["pre_impact", "policy"]).assign(arm=names).set_index("arm").reset_index()
+
+
+def row_name(done: Ranked, arm: Arm) -> str:
+    """The row's arm and the arms merged into it: "none + stiff = direction + stiff"."""
+    return " = ".join(paired.name(a) for a in [arm, *done.same.get(arm, [])])
+
+
+def best_arms(done: Ranked) -> list[Arm]:
+    """The rows of the best mean rank among those not clearly worse than `none` + `stiff` on a
+    harm measure: one is the verdict's named arm, more are a tie."""
+    table = done.table
+    arms = [a for a in zip(table.pre_impact, table.policy) if not done.harm[a]] if len(table) else []
+    rank = dict(zip(zip(table.pre_impact, table.policy), table["mean rank"])) if arms else {}
+    return [arm for arm in arms if rank[arm] == rank[arms[0]]]
 
 
 def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
-    """One line: the arm with the best mean rank, and on which measures its interval is clear of
-    the runner-up's (otherwise the data do not separate them)."""
-    table, est, found = done or _ranked(runs)
+    """One line that follows from the ranking beside it (docs/report.md, "The verdict"): the arm of
+    the best mean rank among those not clearly worse than `none` + `stiff` on a harm measure, and
+    the measures on which it is clearly better than the runner-up; a tie is called a tie."""
+    done = done or ranked(runs)
+    table = done.table
     if len(table) == 0:
         return "no successful runs"
-    best = table.iloc[0]
-    name = f"{best.pre_impact} + {best.policy}"
-    if len(table) == 1:
-        return f"only {name} ran"
-    second = table.iloc[1]
-    first_arm, second_arm = (best.pre_impact, best.policy), (second.pre_impact, second.policy)
-    clear = [
-        m.label.split(" (")[0] for m in found if est[first_arm][m.column].disjoint(est[second_arm][m.column])
-    ]
-    line = f"least damage: {name} (mean rank {best['mean rank']:g} of {len(table)} over {len(found)} measures, {int(best.runs)} runs)"
-    if int(best.runs) < 2:
-        return line + "; one run each, so no interval: a ranking of single falls, not of distributions"
-    if clear:
-        return (
-            line
-            + f"; its 95 % interval is clear of the runner-up's ({second.pre_impact} + {second.policy}) on "
-            + ", ".join(clear)
-        )
-    return (
-        line
-        + f"; its intervals overlap the runner-up's ({second.pre_impact} + {second.policy}) on every measure: no clear winner"
+    arms = list(zip(table.pre_impact, table.policy))
+    if len(arms) == 1:
+        return f"only {row_name(done, arms[0])} ran"
+    eligible = [arm for arm in arms if not done.harm[arm]]
+    tied = best_arms(done)
+    if not tied:
+        return "no arm named: every one is clearly worse than none + stiff on a harm measure"
+    rank = dict(zip(arms, table["mean rank"]))
+    best = tied[0]
+    left_out = _left_out(done, arms[: arms.index(best)])
+    if len(tied) > 1:
+        names = ", ".join(row_name(done, arm) for arm in tied)
+        return f"a tie: {names} share the best mean rank ({rank[best]:g} of {len(arms)}){left_out}"
+    runs_of_best = max(e.n for e in done.estimates[best].values())
+    runs_text = f"{runs_of_best} run{'s' if runs_of_best != 1 else ''}"
+    line = (
+        f"least damage: {row_name(done, best)} (mean rank {rank[best]:g} of {len(arms)} over "
+        f"{len(done.measures)} measures, {runs_text}){left_out}"
     )
+    if not any(paired.REFERENCE in [arm, *done.same.get(arm, [])] for arm in arms):
+        line += "; no none + stiff runs here, so harm against it is not checked"
+    if runs_of_best < 2:
+        return line + "; one run each, so no interval: a ranking of single falls, not of distributions"
+    if len(eligible) == 1:
+        return line + "; every other arm is clearly worse than none + stiff on fell or vulnerable parts hit"
+    return line + _against_runner_up(done, best, eligible[1])
 
 
-def relative_changes(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per (strategy, policy): the change of each damage measure against the `none` + `stiff` run
-    of the same point and seed (median [95 % CI] over points and seeds): peak forces and torques
-    in % of the reference, counts as differences."""
-    ok = runs[runs.status == "ok"]
-    columns = [c for c in (*RELATIVE_MEASURES, *COUNT_MEASURES) if c in ok]
-    key = ["robot", "point"] if "robot" in ok else ["point"]
-    reference = ok[(ok.pre_impact == REFERENCE[0]) & (ok.policy == REFERENCE[1])][key + columns]
-    if reference.empty or not columns:
-        return pd.DataFrame()
-    reference = reference.drop_duplicates(key)
-    rows = []
-    for strategy, policy in _arms(ok):
-        if (strategy, policy) == REFERENCE:
-            continue
-        # each run of the arm with its reference run's values (NaN where the point has none)
-        joined = ok[(ok.pre_impact == strategy) & (ok.policy == policy)][key + columns].merge(
-            reference, on=key, how="left", suffixes=("", ":reference")
-        )
-        arm = joined[columns].astype(float)
-        ref = joined[[f"{c}:reference" for c in columns]].astype(float).set_axis(columns, axis=1)
-        row: dict[str, object] = {
-            "pre_impact": strategy,
-            "policy": policy,
-            "paired runs": int(ref[columns[0]].notna().sum()),
-        }
-        for column in columns:
-            if column in COUNT_MEASURES:
-                row[f"{COUNT_MEASURES[column]} (difference)"] = bootstrap(
-                    arm[column] - ref[column], "mean"
-                ).format(2)
-            else:
-                change = 100 * (arm[column] - ref[column]) / ref[column].where(ref[column] > 0)
-                row[f"{RELATIVE_MEASURES[column]} (%)"] = bootstrap(change).format(2)
-        rows.append(row)
-    return pd.DataFrame(rows)
+def _left_out(done: Ranked, above: list[Arm]) -> str:
+    """Why the arms ranked above the named one are not named."""
+    notes = [
+        f"{row_name(done, arm)} ranks higher but is clearly worse than none + stiff on "
+        + ", ".join(f"{label} (paired change {estimate.format()})" for label, estimate in done.harm[arm])
+        for arm in above
+    ]
+    return "".join(f"; {note}" for note in notes)
+
+
+def _against_runner_up(done: Ranked, best: Arm, runner_up: Arm) -> str:
+    """The measures on which the named arm's interval is clear of the runner-up's on the side of
+    less damage (and, said too, those on the side of more)."""
+    better, worse = [], []
+    for m in done.measures:
+        ours, theirs = done.estimates[best][m.column], done.estimates[runner_up][m.column]
+        if ours.disjoint(theirs):
+            less = ours.value < theirs.value if m.lower_is_better else ours.value > theirs.value
+            (better if less else worse).append(m.label.split(" (")[0])
+    other = row_name(done, runner_up)
+    if better:
+        line = f"; clearly less damage than the runner-up ({other}) on {', '.join(better)}"
+    else:
+        line = f"; not clearly better than the runner-up ({other}) on any measure: no clear winner"
+    return line + (f"; clearly more on {', '.join(worse)}" if worse else "")

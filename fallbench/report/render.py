@@ -12,11 +12,13 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from ruamel.yaml import YAML
 
+from fallbench.report.names import arm_name
 from fallbench.results import store
 from fallbench.scenario import Scenario
 
@@ -24,6 +26,9 @@ FRAME_SIZE = (320, 266)  # px, width x height of one filmstrip frame
 VIDEO_SIZE = (640, 480)  # px per run in a video
 CAMERA_ELEVATION = -12.0  # deg, slightly from above so the floor and the obstacles show
 MERGE_WINDOW = 0.02  # s: key moments closer than this share a frame
+AZIMUTH_TURNS = (0, 180, 45, -45, 135, -135, 90, -90)  # deg from across the fall: the views tried, in order
+OCCLUSION_SAMPLES = 12  # poses of a replay checked for a hidden robot
+STRIP_COLUMNS = 4  # frames per filmstrip row: 4 x 320 px fit a page at their size
 
 
 class RenderUnavailable(RuntimeError):
@@ -77,7 +82,7 @@ def load_replay(results: Path, run_id: str) -> Replay:
         )
     sampled = series[["t", *columns]].dropna()
     row = store.load_run_row(results, run_id)
-    label = f"{row.pre_impact} + {row.policy}, {row.point}"
+    label = f"{arm_name(row.pre_impact, row.policy)}, {row.point}"
     return Replay(
         run_id,
         Scenario.model_validate(spec["scenario"]),
@@ -139,25 +144,64 @@ class Framing:
     azimuth: float
 
 
-def _body_points(replay: Replay) -> np.ndarray:
-    """World positions of every robot body over the replay (every 5th sample): what the camera must hold."""
+def _posed(replay: Replay) -> tuple[Any, Any, np.ndarray]:
+    """The replay's scene (model, data) and every 5th of its poses."""
     import mujoco
 
     from fallbench.sim.world import build_world
 
     model = build_world(replay.scenario).model
-    data = mujoco.MjData(model)
+    return model, mujoco.MjData(model), replay.qpos[::5]
+
+
+def _body_points(replay: Replay) -> np.ndarray:
+    """World positions of every robot body over the replay (every 5th sample): what the camera must hold."""
+    import mujoco
+
+    model, data, poses = _posed(replay)
     points = []
-    for qpos in replay.qpos[::5]:
+    for qpos in poses:
         data.qpos[:] = qpos
         mujoco.mj_kinematics(model, data)
         points.append(data.xpos[1:].copy())
     return np.concatenate(points)
 
 
+def _camera_position(lookat: np.ndarray, distance: float, azimuth: float) -> np.ndarray:
+    """Where MuJoCo puts a free camera: `distance` back from `lookat` along its view direction."""
+    az, el = math.radians(azimuth), math.radians(CAMERA_ELEVATION)
+    forward = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    return lookat - distance * forward
+
+
+def _hidden(replay: Replay, eye: np.ndarray) -> int:
+    """How many robot bodies, over OCCLUSION_SAMPLES poses of the replay, an obstacle hides from
+    `eye`: the ray from the eye to the body meets an obstacle geom (not the robot's, not the
+    floor) first."""
+    import mujoco
+
+    model, data, poses = _posed(replay)
+    robot = model.body_rootid[1]  # the first body is the robot's root, as in `_body_points`
+    is_obstacle = (model.body_rootid[model.geom_bodyid] != robot) & (
+        model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE
+    )
+    if not is_obstacle.any():
+        return 0
+    hidden = 0
+    geom = np.zeros(1, dtype=np.int32)
+    for qpos in poses[:: max(len(poses) // OCCLUSION_SAMPLES, 1)]:
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(model, data)
+        for point in data.xpos[1:][model.body_rootid[1:] == robot]:
+            fraction = mujoco.mj_ray(model, data, eye, point - eye, None, 1, -1, geom)
+            hidden += bool(0 <= fraction < 1 and geom[0] >= 0 and is_obstacle[geom[0]])
+    return hidden
+
+
 def framing(replays: list[Replay]) -> Framing:
     """A side view across the base's path (start to end) that holds every body of the robot over
-    the whole replay: standing, in the air and lying."""
+    the whole replay: standing, in the air and lying. Of the views around it (AZIMUTH_TURNS), the
+    first that obstacles hide the least of the robot from."""
     points = np.concatenate([_body_points(r) for r in replays])
     travel = replays[0].qpos[-1, :2] - replays[0].qpos[0, :2]
     # Across the fall direction; a drop (almost no travel) is seen from the robot's front-left.
@@ -168,7 +212,15 @@ def framing(replays: list[Replay]) -> Framing:
     half_fov = math.tan(math.radians(45 / 2))  # MuJoCo's default vertical field of view
     width = float(np.linalg.norm(high[:2] - low[:2]))
     fit = max((high[2] - low[2]) / 2 / half_fov, width / 2 / (half_fov * FRAME_SIZE[0] / FRAME_SIZE[1]))
-    return Framing((float(centre[0]), float(centre[1]), float(centre[2])), 1.1 * fit + 0.5, azimuth)
+    distance = 1.1 * fit + 0.5
+    best, least = azimuth, None
+    for view in (azimuth + turn for turn in AZIMUTH_TURNS):
+        hidden = _hidden(replays[0], _camera_position(centre, distance, view))
+        if least is None or hidden < least:
+            best, least = view, hidden
+        if hidden == 0:  # nothing in the way: look no further (most scenes have no obstacle)
+            break
+    return Framing((float(centre[0]), float(centre[1]), float(centre[2])), distance, best)
 
 
 class Camera:
@@ -277,19 +329,24 @@ def _strip_camera(scenario: Scenario, view: Framing) -> Camera:
 
 
 def _strip_image(frames: list[np.ndarray], captions: list[str], title: str) -> np.ndarray:
-    """Frames side by side on white, each with its caption above it, a title line on top."""
+    """Frames on white in rows of at most STRIP_COLUMNS (a page's width shows their captions at
+    their size), each with its caption above it, a title line on top."""
     from PIL import Image, ImageDraw, ImageFont
 
     width, height = FRAME_SIZE
-    top, line = 22, 16
-    font, small = ImageFont.load_default(size=14), ImageFont.load_default(size=12)
-    picture = Image.new("RGB", (width * len(frames), top + 2 * line + height), "white")
+    top, line = 24, 18
+    columns = min(len(frames), STRIP_COLUMNS)
+    cell = 2 * line + height
+    font, small = ImageFont.load_default(size=16), ImageFont.load_default(size=15)
+    rows = -(-len(frames) // columns)
+    picture = Image.new("RGB", (width * columns, top + rows * cell), "white")
     draw = ImageDraw.Draw(picture)
     draw.text((6, 3), title, fill=(0, 0, 0), font=font)
     for k, (frame, caption) in enumerate(zip(frames, captions)):
+        x, y = (k % columns) * width, top + (k // columns) * cell
         for n, text in enumerate(caption.split("\n")):
-            draw.text((k * width + 6, top + n * line), text, fill=(0, 0, 0), font=small)
-        picture.paste(Image.fromarray(frame), (k * width, top + 2 * line))
+            draw.text((x + 6, y + n * line), text, fill=(0, 0, 0), font=small)
+        picture.paste(Image.fromarray(frame), (x, y + 2 * line))
     return np.asarray(picture)
 
 
@@ -330,7 +387,7 @@ def video(results: Path, run_ids: list[str], out: Path, fps: int = 30, speed: fl
     try:
         for t in times:
             views = [
-                _caption(c.frame(_at(r, t)), f"{r.row.pre_impact} + {r.row.policy}   t = {t:.2f} s")
+                _caption(c.frame(_at(r, t)), f"{arm_name(r.row.pre_impact, r.row.policy)}   t = {t:.2f} s")
                 for c, r in zip(cameras, replays)
             ]
             frames.append(np.concatenate(views, axis=1))

@@ -6,13 +6,15 @@ import matplotlib
 
 matplotlib.use("Agg")  # files only, no screen
 
-POLICY_COLOURS = {"stiff": "#d62728", "oneshot": "#ff7f0e", "zero": "#7f7f7f", "adaptive_qp": "#1f77b4"}
+# Okabe-Ito colours: told apart with any colour vision (stiff vermillion, onnx bluish green)
+POLICY_COLOURS = {"stiff": "#D55E00", "oneshot": "#E69F00", "zero": "#CC79A7", "adaptive_qp": "#0072B2"}
+OTHER_COLOUR = "#009E73"
 POLICY_ORDER = list(POLICY_COLOURS)
 STRATEGY_LINES = {"none": "--", "reshape": "-"}  # line style per pre-impact strategy
 
 
 def colour(policy: str) -> str:
-    return POLICY_COLOURS.get(policy, "#2ca02c")
+    return POLICY_COLOURS.get(policy, OTHER_COLOUR)
 
 
 def ordered(policies) -> list[str]:

@@ -10,6 +10,8 @@ import pandas as pd
 
 from fallbench.report.figures import _save
 from fallbench.report.grouping import with_robot
+from fallbench.report.names import arm_name
+from fallbench.report.stats import bootstrap
 from fallbench.report.style import STRATEGY_LINES, colour, ordered
 from fallbench.robots import DEFAULT_ROBOT
 
@@ -42,56 +44,97 @@ def distribution_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
     return _save(fig, out, "sweep_distributions")
 
 
+SWEEP_METRICS = ("imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max")
+SWEEP_MARGINS = {"left": 0.06, "right": 0.97, "wspace": 0.3, "bottom": 0.31, "top": 0.86}  # legend below
+POLAR_MARGINS = SWEEP_MARGINS | {"bottom": 0.2, "top": 0.78}  # polar titles sit above the 0 deg label
+LOG_METRICS = {"torque_demand_ratio_max"}  # spans orders of magnitude (up to ~2700)
+UNITS = {
+    "initial.height": "m",
+    "push.force": "N",
+    "push.direction": "deg",
+    "push.duration": "s",
+    "push.start": "s",
+    "friction": "-",
+    "physics_dt": "s",
+    "scale:force": "-",
+    "scale:length": "-",
+}
+
+
 def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
-    """For each scenario family with a numeric sweep: metric medians against the swept value."""
+    """For each scenario family with a numeric sweep: metric medians against the swept value, with
+    their 95 % bootstrap intervals (several runs per value); angles on polar axes."""
     paths: list[Path] = []
     runs = with_robot(runs)
     params = [c for c in runs.columns if c.startswith("param:")]
     for (robot, scenario), group in runs.groupby(["robot", "scenario"]):
         for param in params:
             values = group[param].dropna()
-            if values.nunique() < 2 or not pd.api.types.is_numeric_dtype(
-                values
-            ):  # string parameters (a forced mode) have no axis
-                continue
-            scattered = values.nunique() > MAX_LINE_POINTS  # randomised values: points, not lines
-            fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
-            for ax, metric in zip(axes, ["imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max"]):
-                for (strategy, policy), lines in group.groupby(["pre_impact", "policy"]):
-                    medians = lines.groupby(param)[metric].median()
-                    ax.plot(
-                        medians.index,
-                        medians.to_numpy(),
-                        marker="o",
-                        color=colour(policy),
-                        markersize=4 if scattered else 6,
-                        linestyle="none" if scattered else STRATEGY_LINES.get(strategy, "-."),
-                        label=f"{policy} ({strategy})",
-                        fillstyle="none" if strategy == "none" else "full",
-                    )
-                ax.set(
-                    xlabel=_axis(param), ylabel=KEY_METRICS[metric], title=KEY_METRICS[metric].split(" (")[0]
-                )
-                ax.grid(alpha=0.3)
-            axes[0].legend(fontsize=8)
-            fig.suptitle(
-                f"{robot} {scenario}: metrics vs {param.removeprefix('param:')} (median over the other sweep keys)"
-            )
+            if values.nunique() < 2 or not pd.api.types.is_numeric_dtype(values):
+                continue  # string parameters (a forced mode) have no axis
+            fig, margins = _sweep_figure(group, param, robot, scenario)
             stem = f"sweep_{scenario}_{param.removeprefix('param:').replace('.', '_')}"
-            paths += _save(fig, out, stem if robot == DEFAULT_ROBOT else f"{stem}_{robot}")
+            paths += _save(fig, out, stem if robot == DEFAULT_ROBOT else f"{stem}_{robot}", margins)
     return paths
 
 
-def _axis(param: str) -> str:
+def _sweep_figure(group: pd.DataFrame, param: str, robot: str, scenario: str):
     key = param.removeprefix("param:")
-    units = {
-        "initial.height": "m",
-        "push.force": "N",
-        "push.direction": "deg",
-        "push.duration": "s",
-        "friction": "-",
-    }
-    return f"{key} ({units.get(key, '')})"
+    angular = UNITS.get(key) == "deg"  # directions wrap: 350 deg is next to 0
+    scattered = group[param].nunique() > MAX_LINE_POINTS  # randomised values: points, not lines
+    fig, axes = plt.subplots(
+        1, 3, figsize=(15, 5.4 if angular else 5.0), subplot_kw={"projection": "polar"} if angular else {}
+    )
+    for ax, metric in zip(axes, SWEEP_METRICS):
+        for (strategy, policy), lines in group.groupby(["pre_impact", "policy"]):
+            _sweep_line(ax, lines, param, metric, strategy, policy, scattered, angular)
+        _sweep_axes(ax, metric, key, angular)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(
+        handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False
+    )  # below, not on the data
+    each = "each run" if scattered else "median [95 % CI] over seeds and the other sweep keys"
+    fig.suptitle(f"{robot} {scenario}: metrics vs {key} ({each})".strip())
+    return fig, POLAR_MARGINS if angular else SWEEP_MARGINS
+
+
+def _sweep_line(ax, lines, param, metric, strategy, policy, scattered: bool, angular: bool) -> None:
+    """One arm's medians per swept value, bars for their intervals."""
+    values = sorted(lines[param].dropna().unique())
+    estimates = [bootstrap(lines.loc[lines[param] == v, metric].astype(float)) for v in values]
+    x = np.radians(values) if angular else np.asarray(values, dtype=float)
+    y = np.array([e.value for e in estimates])
+    style = {"color": colour(policy), "fillstyle": "none" if strategy == "none" else "full"}
+    ax.plot(
+        x,
+        y,
+        marker="o",
+        markersize=4 if scattered else 5,
+        linestyle="none" if scattered else STRATEGY_LINES.get(strategy, "-."),
+        label=arm_name(strategy, policy),
+        **style,
+    )
+    low, high = np.array([e.low for e in estimates]), np.array([e.high for e in estimates])
+    if not np.isnan(low).all():
+        ax.vlines(x, low, high, color=style["color"], linewidth=1.0, alpha=0.6)
+
+
+def _sweep_axes(ax, metric: str, key: str, angular: bool) -> None:
+    label = KEY_METRICS[metric]
+    if angular:
+        ax.set_theta_zero_location("N")  # 0 deg = the robot's forward, up
+        ax.set_title(f"{label.split(' (')[0]}\n{label[label.find('(') :]}; angle: {_axis(key)}", fontsize=9)
+        ax.tick_params(labelsize=7)
+    else:
+        ax.set(xlabel=_axis(key), ylabel=label, title=label.split(" (")[0])
+        ax.grid(alpha=0.3)
+    if metric in LOG_METRICS:
+        ax.set_yscale("log") if not angular else ax.set_rscale("symlog")
+
+
+def _axis(key: str) -> str:
+    unit = UNITS.get(key)
+    return f"{key} ({unit})" if unit else key
 
 
 def median_table(runs: pd.DataFrame) -> pd.DataFrame:
