@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.ticker import FuncFormatter, MaxNLocator
 
-from fallbench.report import paired
+import fallbench.report.paired as paired
 from fallbench.report.figures import _save
 from fallbench.report.paired import REFERENCE
 from fallbench.report.ranking import DAMAGE_MEASURES, Ranked, arm_order, measures_for, ranked, row_name

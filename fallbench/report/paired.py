@@ -7,7 +7,7 @@ the reference on a harm measure (never named a winner), and each arm's probabili
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -15,10 +15,20 @@ import pandas as pd
 from fallbench.report.names import arm_name
 from fallbench.report.stats import Estimate, bootstrap
 
-if TYPE_CHECKING:
-    from fallbench.report.ranking import Measure
-
 Arm = tuple[str, str]  # (pre-impact strategy, gain policy)
+
+
+@dataclass(frozen=True)
+class Measure:
+    """A damage measure of the ranking: its column, label, direction and statistics."""
+
+    column: str
+    label: str
+    lower_is_better: bool = True
+    statistic: str = "median"  # "mean" for booleans: the fraction of runs
+    change: str = "median"  # of paired changes; "mean" for booleans and counts (their median is mostly 0)
+
+
 PAIR_KEYS = ("robot", "scenario", "point", "seed")
 REFERENCE: Arm = ("none", "stiff")  # the unprotected fall the learning literature compares against
 HARM_MEASURES = ("fell", "vulnerable_hits")  # an arm clearly worse on one of these is never a winner

@@ -7,20 +7,10 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from fallbench.report import paired
-from fallbench.report.paired import Arm
+import fallbench.report.paired as paired
+from fallbench.report.paired import Arm, Measure
 from fallbench.report.stats import Estimate, bootstrap, natural_key
 from fallbench.report.style import ordered
-
-
-@dataclass(frozen=True)
-class Measure:
-    column: str
-    label: str
-    lower_is_better: bool = True
-    statistic: str = "median"  # "mean" for booleans: the fraction of runs
-    change: str = "median"  # of paired changes; "mean" for booleans and counts (their median is mostly 0)
-
 
 DAMAGE_MEASURES = (
     Measure("imu_peak_z_landing", "landing IMU z peak (m/s²)"),
