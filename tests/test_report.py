@@ -14,7 +14,7 @@ from fallbench.report.claims import claims_table, verdict_matrix
 from fallbench.report.sensitivity import SWEEPS, sensitivity_figure, sensitivity_runs, sensitivity_table
 
 SUITE = """name: drop
-duration: 0.8
+rest: {hold: 0.2}
 initial: {height: 0.5}
 sweep:
   initial.height: [0.5, 1.0]
@@ -403,3 +403,14 @@ def test_a_store_without_settled_counts_every_run_as_settled() -> None:
     assert list(kept.run_id) == ["a", "b"] and unsettled.empty
     kept, unsettled = settled_runs(runs.assign(settled=[True, False]))
     assert list(kept.run_id) == ["a"] and list(unsettled.run_id) == ["b"]
+
+
+def test_a_store_whose_runs_never_settled_reports_what_it_can(tmp_path: Path, sweep) -> None:
+    """Every run cut at its cap (a 0.3 s drop): nothing to rank, and the report says so, not fails."""
+    suite = tmp_path / "cut.yaml"
+    suite.write_text("name: cut\nduration: 0.3\ninitial: {height: 0.5}\n")
+    results, out = tmp_path / "results", tmp_path / "reports"
+    assert sweep(suite, results, policies="stiff,zero").exit_code == 0
+    result = CliRunner().invoke(app, ["report", "--results", str(results), "--out", str(out), "--jobs", "1"])
+    assert result.exit_code == 0, result.output
+    assert "2 runs did not settle by their cap, left out" in (out / "index.html").read_text()

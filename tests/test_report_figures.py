@@ -304,7 +304,7 @@ def test_report_of_scenarios_with_names_of_their_own(tmp_path: Path, sweep) -> N
     all` every policy's typical and worst fall and 002's figures at every point."""
     suite = tmp_path / "mine.yaml"
     suite.write_text(
-        "name: my_drop\nduration: 0.8\ninitial: {height: 0.5}\nsweep:\n  initial.height: [0.5, 0.9]\n"
+        "name: my_drop\nrest: {hold: 0.2}\ninitial: {height: 0.5}\nsweep:\n  initial.height: [0.5, 0.9]\n"
     )
     results, out, every = tmp_path / "results", tmp_path / "reports", tmp_path / "every"
     assert sweep(suite, results).exit_code == 0
