@@ -9,8 +9,8 @@ Every motor switches to the gain policy at the first impact, unless the pre-impa
 switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
 the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
 lands, when all switch, or at the latest `timing.handover_after` s after the first impact (a fall
-that ends on hands and knees never lands on the torso: 002 does not say what follows it). Contacts the strategy planned (a footstep) are not impacts. A whole-fall
-controller (`hands_over` False, a learned fall policy) never hands its motors over: it commands them
+that ends on hands and knees never lands on the torso: 002 does not say what follows it).
+Contacts the strategy planned (a footstep) are not impacts. A whole-fall controller (`hands_over` False, a learned fall policy) never hands its motors over: it commands them
 from fall detection to the episode's end, and impacts are only logged.
 
 Impacts are watched inside the physics substeps: after fall detection, and until every motor has

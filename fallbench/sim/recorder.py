@@ -68,6 +68,7 @@ class Recording:
 
 
 INITIAL_ROWS = 8192  # physics steps the trace starts with: 4.1 s at the default 0.5 ms step
+TRACE_ARRAYS = ("sensordata", "qpos", "qvel", "actuator_force")  # the physics-rate arrays, in that order
 
 
 class Trace:
@@ -76,10 +77,9 @@ class Trace:
 
     def __init__(self, n_steps: int, nsensordata: int, nq: int, nv: int, nu: int) -> None:
         self.limit = n_steps  # physics steps at the cap
-        width = {"sensordata": nsensordata, "qpos": nq, "qvel": nv, "actuator_force": nu}
         rows = min(n_steps, INITIAL_ROWS)
         self.sensordata, self.qpos, self.qvel, self.actuator_force = (
-            np.zeros((rows, columns)) for columns in width.values()
+            np.zeros((rows, columns)) for columns in (nsensordata, nq, nv, nu)
         )
         self.changes: list[tuple[int, ServoCommand]] = []  # (physics step, command) where the servo changed
 
@@ -89,7 +89,7 @@ class Trace:
         if steps <= rows:
             return
         rows = min(max(steps, 2 * rows), self.limit)
-        for name in ("sensordata", "qpos", "qvel", "actuator_force"):
+        for name in TRACE_ARRAYS:
             old = getattr(self, name)
             grown = np.zeros((rows, old.shape[1]))
             grown[: len(old)] = old
