@@ -4,13 +4,13 @@ test_runner_store)."""
 
 from __future__ import annotations
 
-import re
 import subprocess
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
+from fallbench.results.converge import WALL_CLOCK
 from fallbench.results.store import load_metrics
 
 SCENARIOS = """name: qp_drop
@@ -33,7 +33,6 @@ pre_impact: [reshape]
 push: {force: 370, duration: 0.1, start: 0.1, direction: 0}
 policy_params: {adaptive_qp: {solver: daqp}, reshape: {solver: daqp}}
 """
-TIMINGS = re.compile(r"_ms(_|$)|^wall_time_s$")  # wall-clock figures differ from run to run by nature
 
 
 def _stored_metrics(command: list[str], results: Path) -> pd.DataFrame:
@@ -42,7 +41,7 @@ def _stored_metrics(command: list[str], results: Path) -> pd.DataFrame:
     assert done.returncode == 0, done.stdout + done.stderr
     table = load_metrics(results).set_index("run_id").sort_index()
     assert set(table.status) == {"ok"} and len(table) == 4
-    return table[[c for c in table.columns if not TIMINGS.search(c)]]
+    return table[[c for c in table.columns if not WALL_CLOCK.search(c)]]
 
 
 @pytest.mark.slow

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from fallbench.analysis.metrics import HEADLINE_METRICS
-from fallbench.results.runner import RunSpec
+from fallbench.results.runner import RunSpec, identity
 from fallbench.scenario import Scenario, ScenarioError, ScenarioPoint
 
 TOLERANCE = 0.05  # relative change of the last halving
@@ -37,11 +37,7 @@ FLOORS = {
 }
 
 
-# Columns of a stored row that are not measures of the fall: who the run is, and wall-clock figures,
-# which differ from run to run by nature.
-IDENTITY = {"run_id", "schema_version", "robot", "scenario", "point", "group", "source", "policy"}
-IDENTITY |= {"pre_impact", "seed", "physics_dt", "status", "error"}
-WALL_CLOCK = re.compile(r"_ms(_|$)|^wall_time_s$")
+WALL_CLOCK = re.compile(r"_ms(_|$)|^wall_time_s$")  # wall-clock figures differ from run to run by nature
 
 
 @dataclass(frozen=True)
@@ -128,7 +124,10 @@ def end_table(ladders: list[Ladder], runs: pd.DataFrame, specs: list[RunSpec]) -
     `relative_change`). `ok`: a settled run whose bits the cap left alone and whose headline
     measures the longer hold moved by at most TOLERANCE."""
     by_id = runs[runs["status"] == "ok"].set_index("run_id")
-    measures = [c for c in by_id.columns if c not in IDENTITY and not c.startswith(("param:", "version:"))]
+    # not measures of the fall: who the run is (the runner's identity columns, each rung's own swept
+    # `param:` columns), its status, and wall-clock figures
+    who = set(identity(specs[0])) | {"status", "error"} if specs else set()
+    measures = [c for c in by_id.columns if c not in who and not c.startswith(("param:", "version:"))]
     measures = [c for c in measures if not WALL_CLOCK.search(c)]
     rows = []
     for item in ladders:

@@ -115,7 +115,7 @@ def expand(points: list[ScenarioPoint], policies: list[str], pre_impact: list[st
     ]
 
 
-def _identity(spec: RunSpec) -> dict[str, Any]:
+def identity(spec: RunSpec) -> dict[str, Any]:
     scenario = spec.point.scenario
     row: dict[str, Any] = {
         "run_id": spec.run_id,
@@ -149,7 +149,7 @@ def simulate(spec: RunSpec, keep_series: bool = True) -> Outcome:
     from fallbench.registry import simulate_named
 
     started = time.perf_counter()
-    row = _identity(spec)
+    row = identity(spec)
     series = None
     try:
         recording = simulate_named(spec.point.scenario, spec.policy, spec.pre_impact)
