@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 import pandas as pd
 
+from fallbench.analysis.detection import detection_metrics
 from fallbench.analysis.sensors import FORCE_WINDOW, ImuModel, window_mean_peak
 from fallbench.dynamics.fall_direction import fall_class, horizontal_unit
 from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
@@ -288,6 +289,7 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["fall_time"] = float("nan") if rec.fall_time is None else float(rec.fall_time)
     row["fall_reason"] = rec.fall_reason
     row.update(fall_lead_times(rec, impact))
+    row.update(_detection(rec))
     row["first_contact_bodies"] = ",".join(rec.impact_bodies)
     row.update(_outcome(rec))
     row["controller_ms_median"] = float(np.median(rec.controller_ms))
@@ -296,6 +298,14 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["sim_steps"] = int(rec.steps)
     row["sim_time"] = float(rec.steps * rec.scenario.physics_dt)
     return row
+
+
+def _detection(rec: Recording) -> dict[str, object]:
+    """Every detector's firing time over the threshold grid (analysis/detection.py)."""
+    push = rec.scenario.push
+    onset = push.start if push is not None and push.force != 0 else 0.0
+    hold = rec.scenario.detection.freefall_hold
+    return detection_metrics(rec.detection_signals, rec.body_contact_time, onset, hold)
 
 
 def _imu_and_joints(rec: Recording, impact: float | None, takeover: float | None) -> dict[str, object]:

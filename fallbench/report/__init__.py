@@ -13,6 +13,7 @@ import pandas as pd
 
 from fallbench.report import pages, ranking
 from fallbench.report.claims import claims_table, verdict_matrix
+from fallbench.report.detection import detection_section
 from fallbench.report.direction import direction_report, top_down_figure
 from fallbench.report.drawing import Drawn, Figure, draw
 from fallbench.report.figures import draw_paper_figures, paper_points
@@ -676,6 +677,9 @@ def build_report(
     sections = _sections(runs, halved, results, out, options)
     per_robot = ranking.robots(runs)
     family_pages = _family_pages(out, sections)
+    detection = detection_section(runs, out)  # fall detection judged on the none + stiff runs
+    if detection is not None:
+        family_pages.append(detection)
 
     index_body = _index_answer(runs, halved, results, out, sections)
     index_body += _index_evidence(per_robot, out, sections) + _index_links(family_pages, sections)

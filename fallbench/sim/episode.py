@@ -38,6 +38,7 @@ from fallbench.sim.events import (
     FallDetector,
     FreefallDetector,
     ImpactDetector,
+    SignalLog,
     TiltDetector,
 )
 from fallbench.sim.impacts import ImpactLog
@@ -136,6 +137,17 @@ class Takeover:
         return True
 
 
+class DetectorInputs(NamedTuple):
+    """A control step's inputs to the fall detectors (`Episode.detector_inputs`)."""
+
+    found: np.ndarray  # per contact body: touching since the last control step
+    torso: np.ndarray  # torso frame in the world: columns forward, left, up
+    imu_acc: np.ndarray  # m/s^2, accelerometer (gravity included)
+    com: np.ndarray  # m
+    com_velocity: np.ndarray  # m/s
+    support: np.ndarray  # (n, 2) m, ground points of the feet in contact
+
+
 class Sensed(NamedTuple):
     """What the first half of a control step found, for its second half."""
 
@@ -179,6 +191,9 @@ class Episode:
             ImpactDetector(),
             FootSupport(world),
         )
+        self.signals = SignalLog()
+        feet = world.robot.body_groups.get("feet", ())
+        self.not_feet = ~np.isin(world.contact_bodies, list(feet))  # contact bodies whose touch is an impact
         self.takeover = Takeover(model.nu)
         self.due: list[tuple[float, np.ndarray]] = []  # (s, motors): switches waiting for the latency
         self.push = _push_force(world, scenario)
@@ -224,7 +239,13 @@ class Episode:
         `sense` and `act`: nothing between them moves the simulation."""
         t = self.step * self.scenario.physics_dt
         started = time.perf_counter()
-        self.detect_fall(t)
+        watching_fall = self.impact.time is None and not self.fall.all_fired
+        if watching_fall or self.signals.watching:
+            inputs = self.detector_inputs()
+            body = bool((inputs.found & self.not_feet).any())
+            self.signals.update(t, *inputs[1:], body)
+            if watching_fall:
+                self.detect_fall(t, inputs)
         switched_now = False
         found = self.found() if self.fall.time is not None else self.seen
         if self.fall.time is not None:
@@ -264,26 +285,29 @@ class Episode:
     def names(self, mask: np.ndarray) -> set[str]:
         return {self.world.contact_bodies[i] for i in np.flatnonzero(mask)}
 
-    def detect_fall(self, t: float) -> None:
-        """Feed the fall detectors (every one is watched until the first impact); at detection,
-        note the bodies already touching and start the strategy."""
-        if self.impact.time is not None or self.fall.all_fired:
-            return
-        detected = self.fall.time is not None
+    def detector_inputs(self) -> DetectorInputs:
+        """What the fall detectors read at this control step: contact sensors, torso frame,
+        accelerometer, CoM position and velocity, and the ground points of the feet in contact."""
         found, world = self.found(), self.world
         mujoco.mju_copy(self.torso_rotation, self.data.xmat[world.torso_body])
+        return DetectorInputs(
+            found,
+            world.robot.torso_frame(self.torso_rotation.reshape(3, 3)),
+            world.sensor(self.sensor_row, "imu_acc"),
+            world.sensor(self.sensor_row, "com_pos"),
+            world.sensor(self.sensor_row, "com_vel"),
+            self.support.points(self.data, found),
+        )
+
+    def detect_fall(self, t: float, inputs: DetectorInputs) -> None:
+        """Feed the fall detectors (every one is watched until the first impact); at detection,
+        note the bodies already touching and start the strategy."""
+        detected = self.fall.time is not None
         if (
-            self.fall.update(
-                t,
-                world.robot.torso_frame(self.torso_rotation.reshape(3, 3)),
-                world.sensor(self.sensor_row, "imu_acc"),
-                world.sensor(self.sensor_row, "com_pos"),
-                world.sensor(self.sensor_row, "com_vel"),
-                self.support.points(self.data, found),
-            )
+            self.fall.update(t, inputs.torso, inputs.imu_acc, inputs.com, inputs.com_velocity, inputs.support)
             and not detected
         ):
-            self.seen = self.whole_feet(found)
+            self.seen = self.whole_feet(inputs.found)
             self.impact.start(self.names(self.seen))
             self.strategy.start(t, self.data)
 
@@ -437,6 +461,8 @@ class Episode:
             fall_time=self.fall.time,
             fall_reason=self.fall.reason,
             fall_times=dict(self.fall.times),
+            detection_signals=self.signals.array(),
+            body_contact_time=self.signals.body_contact_time,
             impact_time=self.impact.time,
             impact_bodies=self.impact.bodies,
             controller_ms=np.array(self.controller_ms),

@@ -10,6 +10,8 @@ Three fall detectors, each usable on its own (plain arrays in, no simulator):
 
 `FallDetector` runs the three side by side: the fall is declared by the earliest of the selected
 ones, and every detector's own firing time is kept so that their lead times can be compared.
+`SignalLog` keeps the three signals themselves, so that any threshold can be judged afterwards
+(`fallbench/analysis/detection.py`).
 """
 
 from __future__ import annotations
@@ -192,3 +194,46 @@ class ImpactDetector:
             if new:
                 self.time, self.bodies = t, new
         return self.time is not None
+
+
+@dataclass
+class SignalLog:
+    """The three detectors' signals at every control step, whatever their thresholds: the capture
+    point's signed distance to the support polygon (m; NaN when no foot touches), the torso tilt
+    (deg) and the accelerometer norm (m/s^2). Kept from the start of the run until a body other
+    than the feet first touches the world (`body_contact_time`, s: the control step whose contact
+    sensors found it; the impact a detector is meant to foresee), or to the end of a run in which
+    none does."""
+
+    rows: list[tuple[float, float, float, float]] = field(default_factory=list)  # t, distance, tilt, |acc|
+    body_contact_time: float | None = None
+
+    @property
+    def watching(self) -> bool:
+        return self.body_contact_time is None
+
+    def update(
+        self,
+        t: float,
+        torso_rotation: np.ndarray,
+        imu_acc: np.ndarray,
+        com: np.ndarray,
+        com_velocity: np.ndarray,
+        support_points: np.ndarray,
+        body_touching: bool,
+    ) -> None:
+        if not self.watching:
+            return
+        if body_touching:
+            self.body_contact_time = t
+            return
+        distance = (
+            signed_distance(capture_point(com, com_velocity), support_polygon(support_points))
+            if len(support_points)
+            else math.nan
+        )
+        self.rows.append((t, distance, tilt_deg(torso_rotation), float(np.linalg.norm(imu_acc))))
+
+    def array(self) -> np.ndarray:
+        """(steps, 4): t (s), capture-point distance (m), tilt (deg), accelerometer norm (m/s^2)."""
+        return np.array(self.rows, dtype=float).reshape(-1, 4)

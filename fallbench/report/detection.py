@@ -1,0 +1,105 @@
+"""The fall-detection page: every detector judged as a detector on the store's none + stiff runs
+(labelled at rest: fell or survived), its trade-off between false alarms, misses and lead time
+over the threshold grid, and the scenario default's point on it (analysis/detection.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import pandas as pd
+
+import fallbench.report.pages as pages
+from fallbench.analysis.detection import EARLIEST, GRID, detection_table
+from fallbench.report.figures import _save
+from fallbench.scenario import Detection
+
+PAGE = "detection.html"
+MIN_RUNS = 10  # per robot: fewer none + stiff runs say nothing about a detector
+DEFAULTS = {
+    "capture_point": Detection().capture_point_margin,
+    "tilt": Detection().tilt,
+    "freefall": Detection().freefall,
+}
+MARKERS = {"capture_point": "o", "tilt": "s", "freefall": "^"}
+COLUMNS = {
+    "detector": "detector",
+    "threshold": "threshold",
+    "unit": "unit",
+    "survived": "survived",
+    "false_alarms": "false alarms",
+    "false_alarm_rate": "false-alarm rate",
+    "fell": "fell",
+    "misses": "misses",
+    "miss_rate": "miss rate",
+    "lead_median_s": "median lead (s)",
+    "delay_median_s": "median delay (s)",
+}
+
+
+def detection_runs(runs: pd.DataFrame) -> pd.DataFrame:
+    """The runs that judge the detectors: none + stiff (nothing acts on a detection), with their
+    detection columns, on robots with at least MIN_RUNS of them."""
+    if "body_contact_time" not in runs:
+        return runs.iloc[0:0]
+    mine = runs[(runs.pre_impact == "none") & (runs.policy == "stiff") & (runs.status == "ok")]
+    mine = mine[mine["disturbance_onset"].notna()]
+    counts = mine.groupby("robot")["run_id"].transform("size")
+    return mine[counts >= MIN_RUNS]
+
+
+def trade_off_figure(table: pd.DataFrame, out: Path) -> list[Path]:
+    """Per robot: false-alarm rate against miss rate, and against median lead time, one line per
+    detector through its thresholds; the default threshold circled."""
+    robots = sorted(table.robot.unique())
+    fig, axes = plt.subplots(len(robots), 2, figsize=(10, 4 * len(robots)), squeeze=False)
+    for row, robot in zip(axes, robots):
+        for detector in GRID:
+            mine = table[(table.robot == robot) & (table.detector == detector)]
+            default = mine[mine.threshold == DEFAULTS[detector]]
+            for ax, y in zip(row, ("miss_rate", "lead_median_s")):
+                ax.plot(mine.false_alarm_rate, mine[y], marker=MARKERS[detector], label=detector)
+                ax.plot(default.false_alarm_rate, default[y], "o", ms=14, mfc="none", mec="black")
+        earliest = table[(table.robot == robot) & (table.detector == EARLIEST)]
+        for ax, y in zip(row, ("miss_rate", "lead_median_s")):
+            ax.plot(
+                earliest.false_alarm_rate,
+                earliest[y],
+                "*",
+                ms=14,
+                color="black",
+                label="earliest of the three",
+            )
+        row[0].set(
+            xlabel="false-alarm rate (runs survived)", ylabel="miss rate (falls)", title=f"{robot}: misses"
+        )
+        row[1].set(
+            xlabel="false-alarm rate (runs survived)", ylabel="median lead time (s)", title=f"{robot}: lead"
+        )
+        row[0].legend(title="circled: default threshold", fontsize=9)
+    return _save(fig, out, "detection_trade_off")
+
+
+def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
+    """Write detection.html from the store's none + stiff runs; None if too few of them."""
+    judged = detection_runs(runs)
+    if judged.empty:
+        return None
+    table = detection_table(judged, DEFAULTS)
+    body = [
+        "<h1>Fall detection</h1>",
+        f"<p>{len(judged)} runs under none + stiff, labelled at rest (fell or survived). A false alarm: "
+        "the detector fired in a run that survived. A miss: it had not fired when a body other than "
+        "the feet first touched. Lead: from firing to that touch. Delay: from the disturbance's "
+        "onset (the push's start, 0 for a drop) to firing. Defaults: "
+        + ", ".join(f"{d} {v:g}" for d, v in DEFAULTS.items())
+        + "; 'earliest': the three together at their defaults, the first to fire declaring the fall, "
+        "as a scenario's default `detection` does (docs/detection.md).</p>",
+    ]
+    body += [pages.image(p, out) for p in trade_off_figure(table, out) if p.suffix == ".png"]
+    for robot, mine in table.groupby("robot"):
+        body += [
+            f"<h2>{robot}</h2>",
+            pages.table(mine.drop(columns="robot").rename(columns=COLUMNS).round(3)),
+        ]
+    return pages.write(out / PAGE, "fallbench: fall detection", body)

@@ -1,0 +1,94 @@
+"""Fall detection judged as a detector (analysis/detection.py): firing times from a signal log by
+the online detectors' rules, the scores over labelled runs by hand, and a simulated fall whose
+logged signals give the online detectors' own firing times."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fallbench.analysis.detection import column, detection_table, fire_time
+from fallbench.analysis.metrics import compute_metrics
+from fallbench.registry import simulate_named
+from fallbench.scenario import Push, Scenario
+
+
+def _log(distance: list[float], tilt: list[float], acc: list[float], dt: float = 0.005) -> np.ndarray:
+    t = np.arange(len(tilt)) * dt
+    return np.column_stack([t, distance, tilt, acc])
+
+
+def test_each_detector_fires_at_its_first_crossing() -> None:
+    log = _log([math.nan, -0.1, 0.03, 0.2, 0.1], [1, 4, 12, 16, 30], [9.8, 2, 2, 9.8, 1])
+    assert fire_time(log, "capture_point", 0.02) == pytest.approx(0.010)
+    assert fire_time(log, "capture_point", 0.1) == pytest.approx(0.015)
+    assert math.isnan(fire_time(log, "capture_point", 0.3))
+    assert fire_time(log, "tilt", 15) == pytest.approx(0.015)
+    assert math.isnan(fire_time(log, "tilt", 30))  # above, not at
+
+
+def test_freefall_needs_its_whole_hold_and_fires_when_it_dropped() -> None:
+    log = _log([0.0] * 6, [0.0] * 6, [9.8, 2, 2, 9.8, 1, 1])  # below for 5 ms, then again from 20 ms
+    assert fire_time(log, "freefall", 3, hold=0.005) == pytest.approx(0.005)
+    assert math.isnan(fire_time(log, "freefall", 3, hold=0.006))
+    assert math.isnan(fire_time(log, "freefall", 0.5, hold=0.0))
+
+
+def _runs() -> pd.DataFrame:
+    """Four runs by hand: two falls (body touches at 1.0 s), two survived; onset 0.1 s."""
+    runs = pd.DataFrame(
+        {
+            "robot": "talos",
+            "fell": [True, True, False, False],
+            "body_contact_time": [1.0, 1.0, math.nan, math.nan],
+            "disturbance_onset": 0.1,
+        }
+    )
+    runs[column("tilt", 15.0)] = [0.4, math.nan, 2.0, math.nan]  # caught, missed, false alarm, quiet
+    return runs
+
+
+def test_scores_by_hand() -> None:
+    table = detection_table(_runs())
+    row = table[(table.detector == "tilt") & (table.threshold == 15.0)].iloc[0]
+    assert (row.survived, row.false_alarms, row.fell, row.misses) == (2, 1, 2, 1)
+    assert row.false_alarm_rate == 0.5 and row.miss_rate == 0.5
+    assert row.lead_median_s == pytest.approx(0.6) and row.delay_median_s == pytest.approx(0.3)
+    assert set(table.detector) == {"tilt"}  # only the columns the runs hold
+
+
+def test_a_detector_firing_after_the_body_touched_misses() -> None:
+    runs = _runs()
+    runs.loc[0, column("tilt", 15.0)] = 1.0  # at the touch itself: too late
+    row = detection_table(runs).iloc[0]
+    assert row.misses == 2 and math.isnan(row.lead_median_s)
+
+
+def test_logged_signals_give_the_online_firing_times_on_a_fall() -> None:
+    """TALOS pushed over (370 N): the grid's default thresholds fire when the online detectors did,
+    and the body's first touch comes after them."""
+    rec = simulate_named(
+        Scenario(name="p", duration=2.0, push=Push(force=370, direction=0, duration=0.1)), "stiff"
+    )
+    row = compute_metrics(rec)
+    assert row["fell"] is True
+    assert row[column("capture_point", 0.02)] == row["fall_time_capture_point"]
+    assert row[column("tilt", 15.0)] == row["fall_time_tilt"]
+    assert row["disturbance_onset"] == 0.1
+    assert row["fall_time_tilt"] < row["body_contact_time"] < 2.0
+    assert rec.detection_signals[-1, 0] < row["body_contact_time"]
+
+
+def test_the_report_page_needs_enough_none_stiff_runs(tmp_path) -> None:
+    from fallbench.report.detection import MIN_RUNS, detection_section
+
+    runs = pd.concat([_runs()] * 3, ignore_index=True)  # 12 runs
+    runs = runs.assign(run_id=[f"r{i}" for i in range(len(runs))], pre_impact="none", policy="stiff", status="ok")
+    page = detection_section(runs, tmp_path)
+    assert page is not None and (tmp_path / "detection_trade_off.png").exists()
+    assert "talos" in page.read_text() and "false-alarm rate" in page.read_text()
+    assert detection_section(runs.iloc[: MIN_RUNS - 1], tmp_path / "few") is None
+    assert detection_section(runs.assign(policy="adaptive_qp"), tmp_path / "other") is None
