@@ -86,7 +86,9 @@ def test_the_report_page_needs_enough_none_stiff_runs(tmp_path) -> None:
     from fallbench.report.detection import MIN_RUNS, detection_section
 
     runs = pd.concat([_runs()] * 3, ignore_index=True)  # 12 runs
-    runs = runs.assign(run_id=[f"r{i}" for i in range(len(runs))], pre_impact="none", policy="stiff", status="ok")
+    runs = runs.assign(
+        run_id=[f"r{i}" for i in range(len(runs))], pre_impact="none", policy="stiff", status="ok"
+    )
     page = detection_section(runs, tmp_path)
     assert page is not None and (tmp_path / "detection_trade_off.png").exists()
     assert "talos" in page.read_text() and "false-alarm rate" in page.read_text()
