@@ -116,8 +116,22 @@ class Detection(Strict):
         3.0  # m/s^2: accelerometer norm below this declares free fall
     )
     freefall_hold: Annotated[float, Field(ge=0, le=10)] = 0.02  # s the accelerometer must read free fall
+    # A strategy that acted on a fall that does not go on hands back to the stance controller
+    # (docs/detection.md#false-alarms): the capture point at least `hand_back_margin` m inside the
+    # feet's support polygon and the torso tilt under `tilt` for `hand_back_hold` s, before any
+    # body other than the feet touched.
+    # Detectors whose firing starts a pre-impact strategy (the declared detection, or later, up
+    # to the first touch of a body other than the feet): free fall alone is no topple, a drop may
+    # land on its feet. A whole-fall controller starts at the declared detection.
+    act_on: Annotated[tuple[Literal["capture_point", "tilt"], ...], Field(min_length=1)] = (
+        "capture_point",
+        "tilt",
+    )
+    hand_back: bool = True
+    hand_back_margin: Annotated[float, Field(ge=0, le=0.5)] = 0.0  # m
+    hand_back_hold: Annotated[float, Field(gt=0, le=2)] = 0.1  # s
 
-    @field_validator("method", mode="before")
+    @field_validator("method", "act_on", mode="before")
     @classmethod
     def _one_or_many(cls, value: Any) -> Any:
         return (value,) if isinstance(value, str) else value

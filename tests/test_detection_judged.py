@@ -14,6 +14,7 @@ from fallbench.analysis.detection import column, detection_table, fire_time
 from fallbench.analysis.metrics import compute_metrics
 from fallbench.registry import simulate_named
 from fallbench.scenario import Push, Scenario
+from fallbench.sim.events import FallWatch
 
 
 def _log(distance: list[float], tilt: list[float], acc: list[float], dt: float = 0.005) -> np.ndarray:
@@ -94,3 +95,43 @@ def test_the_report_page_needs_enough_none_stiff_runs(tmp_path) -> None:
     assert "talos" in page.read_text() and "false-alarm rate" in page.read_text()
     assert detection_section(runs.iloc[: MIN_RUNS - 1], tmp_path / "few") is None
     assert detection_section(runs.assign(policy="adaptive_qp"), tmp_path / "other") is None
+
+
+def test_a_fall_is_over_after_a_whole_hold_inside_the_support_and_upright() -> None:
+    watch = FallWatch(margin=0.01, tilt=15.0, hold=0.05)
+    steps = [(0.0, 0.2, 5), (0.01, -0.02, 5), (0.02, math.nan, 5), (0.03, -0.02, 5), (0.05, -0.02, 20)]
+    assert not any(watch.update(t, d, tilt) for t, d, tilt in steps)  # outside, no support, tilted
+    assert not watch.update(0.06, -0.005, 5)  # inside, but by less than the margin
+    verdicts = [watch.update(t, -0.02, 5) for t in (0.07, 0.10, 0.12, 0.13)]
+    assert verdicts == [False, False, True, False] and watch.time == 0.12  # once, after 0.05 s
+
+
+def _reshaped(force: float, **detection: object) -> dict[str, object]:
+    scenario = Scenario(name="p", push=Push(force=force, direction=0, duration=0.1), detection=detection)
+    return compute_metrics(simulate_named(scenario, "stiff", "reshape"))
+
+
+def test_a_false_alarm_is_handed_back_and_the_robot_stays_up() -> None:
+    """A push TALOS survives (235 N) with an eager capture-point margin (-3 cm) starts `reshape`;
+    its fall does not go on, so it hands back and TALOS stays up; kept reshaping, it falls."""
+    row = _reshaped(235, capture_point_margin=-0.03)
+    assert row["strategy_start_time"] == row["fall_time"] and 0.1 < row["fall_time"] < 0.3
+    assert row["hand_back_time"] == pytest.approx(row["fall_time"] + 0.1) and row["fell"] is False
+    kept = _reshaped(235, capture_point_margin=-0.03, hand_back=False)
+    assert math.isnan(kept["hand_back_time"]) and kept["fell"] is True
+
+
+def test_a_fall_that_goes_on_is_never_handed_back() -> None:
+    row = _reshaped(370)
+    assert row["fell"] is True and row["strategy_start_time"] == row["fall_time"]
+    assert math.isnan(row["hand_back_time"])
+
+
+def test_free_fall_alone_does_not_start_a_strategy() -> None:
+    """A 0.3 m G1 drop that G1 lands on its feet: free fall declares the fall at once, but `reshape`
+    waits for a topple (capture point or tilt), so it never acts in the air."""
+    scenario = Scenario(name="d", robot="g1", initial={"height": 0.3})
+    row = compute_metrics(simulate_named(scenario, "stiff", "reshape"))
+    assert row["fall_reason"] == "freefall" and row["fall_time"] < 0.05
+    assert not row["strategy_start_time"] < row["impact_time"]  # NaN or after the feet landed
+    assert row["fell"] is False

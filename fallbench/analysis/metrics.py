@@ -290,6 +290,9 @@ def compute_metrics(rec: Recording) -> dict[str, object]:
     row["fall_reason"] = rec.fall_reason
     row.update(fall_lead_times(rec, impact))
     row.update(_detection(rec))
+    for name in ("strategy_start_time", "hand_back_time"):
+        value = getattr(rec, name)
+        row[name] = float("nan") if value is None else float(value)
     row["first_contact_bodies"] = ",".join(rec.impact_bodies)
     row.update(_outcome(rec))
     row["controller_ms_median"] = float(np.median(rec.controller_ms))

@@ -36,6 +36,7 @@ from fallbench.sim.controllers import Observation, PostImpactController, PreImpa
 from fallbench.sim.events import (
     CapturePointDetector,
     FallDetector,
+    FallWatch,
     FreefallDetector,
     ImpactDetector,
     SignalLog,
@@ -192,6 +193,8 @@ class Episode:
             FootSupport(world),
         )
         self.signals = SignalLog()
+        detection = scenario.detection
+        self.watch = FallWatch(detection.hand_back_margin, detection.tilt, detection.hand_back_hold)
         feet = world.robot.body_groups.get("feet", ())
         self.not_feet = ~np.isin(world.contact_bodies, list(feet))  # contact bodies whose touch is an impact
         self.takeover = Takeover(model.nu)
@@ -200,6 +203,8 @@ class Episode:
         self.pre_command = ServoCommand(
             world.default_kp, world.default_kd, data.qpos[world.qpos_adr].copy(), np.zeros(model.nu)
         )
+        self.stance = self.pre_command  # the stance controller a strategy hands back to
+        self.started: float | None = None  # s: the strategy's start (see `start_strategy`)
         self.policy_command: ServoCommand | None = None
         self.written = self.pre_command
         write_servo(
@@ -246,6 +251,8 @@ class Episode:
             self.signals.update(t, *inputs[1:], body)
             if watching_fall:
                 self.detect_fall(t, inputs)
+            self.start_strategy(t)
+            self.watch_fall(t)
         switched_now = False
         found = self.found() if self.fall.time is not None else self.seen
         if self.fall.time is not None:
@@ -256,7 +263,8 @@ class Episode:
     def strategy_steps_now(self) -> bool:
         """Whether `act` will ask the strategy for a command at this control step."""
         return (
-            self.fall.time is not None
+            self.started is not None
+            and self.watch.time is None
             and not self.takeover.switched.all()
             and self.step % self.per_control == 0
         )
@@ -265,7 +273,7 @@ class Episode:
         """The second half of a control step: the strategy, the gain policy, the servo, the push,
         and the physics substeps to the next control step."""
         t = sensed.t
-        if self.fall.time is not None:
+        if self.started is not None:
             self.strategy_step(t)
         command = self.command(t, sensed.found, sensed.switched_now)
         self.controller_ms.append(
@@ -301,7 +309,7 @@ class Episode:
 
     def detect_fall(self, t: float, inputs: DetectorInputs) -> None:
         """Feed the fall detectors (every one is watched until the first impact); at detection,
-        note the bodies already touching and start the strategy."""
+        note the bodies already touching."""
         detected = self.fall.time is not None
         if (
             self.fall.update(t, inputs.torso, inputs.imu_acc, inputs.com, inputs.com_velocity, inputs.support)
@@ -309,7 +317,42 @@ class Episode:
         ):
             self.seen = self.whole_feet(inputs.found)
             self.impact.start(self.names(self.seen))
-            self.strategy.start(t, self.data)
+
+    def start_strategy(self, t: float) -> None:
+        """A whole-fall controller starts at the declared detection; a pre-impact strategy once
+        one of `detection.act_on` sees the robot topple, at the declaration or later, before a body
+        other than the feet touches (free fall alone is no topple: a drop may land on its feet)."""
+        if self.started is not None or self.fall.time is None:
+            return
+        if self.strategy.hands_over and not self.toppling():
+            return
+        self.started = t
+        self.strategy.start(t, self.data)
+
+    def toppling(self) -> bool:
+        """Whether a detector of `detection.act_on` fires at this control step (from the logged
+        signals, by the detectors' own rules)."""
+        if not self.signals.watching:
+            return False
+        _, distance, tilt, _ = self.signals.rows[-1]
+        detection = self.scenario.detection
+        return ("capture_point" in detection.act_on and distance > detection.capture_point_margin) or (
+            "tilt" in detection.act_on and tilt > detection.tilt
+        )
+
+    def watch_fall(self, t: float) -> None:
+        """After the strategy started, until a body other than the feet touches: on a fall that
+        does not go on (`events.FallWatch`), the strategy stops and its motors go back to the stance
+        controller: the stance gains, holding the posture the robot has then (snapping back to the
+        starting posture toppled TALOS in docs/detection.md's example). The strategy does not act
+        again in the run; motors already under the gain policy stay there."""
+        acting = self.started is not None and self.watch.time is None and self.strategy.hands_over
+        if not acting or not self.signals.watching or not self.scenario.detection.hand_back:
+            return
+        _, distance, tilt, _ = self.signals.rows[-1]
+        if self.watch.update(t, distance, tilt):  # hold the posture it has, with the stance gains
+            q = self.data.qpos[self.world.qpos_adr].copy()
+            self.pre_command = ServoCommand(self.stance.kp, self.stance.kd, q, np.zeros_like(q))
 
     def whole_feet(self, touching: np.ndarray) -> np.ndarray:
         """The touching bodies and, for each foot among them, the foot's other bodies up its chain:
@@ -360,8 +403,9 @@ class Episode:
         return any([self.takeover.switch(motors, q, t) for motors in ready])
 
     def strategy_step(self, t: float) -> None:
-        """The strategy's own command on its control grid, until every motor has switched."""
-        if not self.takeover.switched.all() and self.step % self.per_control == 0:
+        """The strategy's own command on its control grid, until every motor has switched or it
+        handed back."""
+        if self.watch.time is None and not self.takeover.switched.all() and self.step % self.per_control == 0:
             self.pre_command = self.strategy.step(t, self.data) or self.pre_command
 
     def command(self, t: float, found: np.ndarray, switched_now: bool) -> ServoCommand:
@@ -463,6 +507,8 @@ class Episode:
             fall_times=dict(self.fall.times),
             detection_signals=self.signals.array(),
             body_contact_time=self.signals.body_contact_time,
+            hand_back_time=self.watch.time,
+            strategy_start_time=self.started,
             impact_time=self.impact.time,
             impact_bodies=self.impact.bodies,
             controller_ms=np.array(self.controller_ms),

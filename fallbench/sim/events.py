@@ -237,3 +237,30 @@ class SignalLog:
     def array(self) -> np.ndarray:
         """(steps, 4): t (s), capture-point distance (m), tilt (deg), accelerometer norm (m/s^2)."""
         return np.array(self.rows, dtype=float).reshape(-1, 4)
+
+
+@dataclass
+class FallWatch:
+    """After a detection: whether the fall goes on. It is over (`update` returns True, once) when,
+    for `hold` s, the capture point stays at least `margin` m inside the feet's support polygon and
+    the torso tilt under `tilt` deg, before any body other than the feet touched; the watch ends
+    without a verdict at that touch (the fall went on)."""
+
+    margin: float  # m
+    tilt: float  # deg
+    hold: float  # s
+    since: float | None = None
+    time: float | None = None  # s, when the fall was judged over
+
+    def update(self, t: float, distance: float, tilt: float) -> bool:
+        """One control step's capture-point distance (m, NaN without support) and tilt (deg)."""
+        if self.time is not None:
+            return False
+        if not (distance <= -self.margin and tilt < self.tilt):  # NaN: no support, not over
+            self.since = None
+            return False
+        self.since = t if self.since is None else self.since
+        if t - self.since >= self.hold - 1e-9:
+            self.time = t
+            return True
+        return False

@@ -64,11 +64,13 @@ class Recording:
     time_to_rest: float | None = (
         None  # s: start of the stretch at rest that ended the run; None = not settled
     )
-    rest_frame: np.ndarray = field(default_factory=lambda: np.eye(3))
+    rest_frame: np.ndarray = field(default_factory=lambda: np.eye(3))  # torso forward/left/up at the end
     # (steps, 4) per control step: t (s), capture-point distance (m), tilt (deg), |acc| (m/s^2)
     # up to `body_contact_time` (s: a body other than the feet first touches; None = never)
     detection_signals: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
-    body_contact_time: float | None = None  # torso forward/left/up at the end
+    body_contact_time: float | None = None
+    hand_back_time: float | None = None  # s: the strategy handed back, its fall not going on
+    strategy_start_time: float | None = None  # s: the pre-impact strategy started (detection.act_on)
 
 
 INITIAL_ROWS = 8192  # physics steps the trace starts with: 4.1 s at the default 0.5 ms step
