@@ -1,4 +1,4 @@
-"""The short-rollout predictor of `direction` (issue 23 item 3): a rollout leaves the running fall,
+"""The short-rollout predictor of `direction`: a rollout leaves the running fall,
 the strategy and the model as they were, and predicts a forced step's fall closer to the simulated
 one than 004's pendulum does."""
 

@@ -1,4 +1,4 @@
-"""000's landing order under `reshape` on falls the shipped push.yaml does not hold (issue 23).
+"""000's landing order under `reshape` on falls the shipped push.yaml does not hold.
 
 Back falls: the hands must land before the buttocks (000 Sec. IV-C). A crouched TALOS sits on a
 thigh and a hip first, so the buttocks' point the hands aim below must include them (`seat_bodies`);

@@ -1,4 +1,4 @@
-"""Judging 004 where steering can matter (issue 23 item 5): the robot's steering authority measured
+"""Judging 004 where steering can matter: the robot's steering authority measured
 in free space, the deflection each `none` hit needs, and 004's first claim over the hits whose need
 is within that authority.
 

@@ -159,8 +159,8 @@ class Sensed(NamedTuple):
 
 
 class Episode:
-    """One fall of a built world under a pre-impact strategy and a gain policy (DESIGN.md's data
-    path): each control step runs the fall detector, the strategy, the impact detector, the gain
+    """One fall of a built world under a pre-impact strategy and a gain policy (the data path of
+    docs/architecture.md): each control step runs the fall detector, the strategy, the impact detector, the gain
     policy and the servo, then the physics substeps record the trace."""
 
     def __init__(

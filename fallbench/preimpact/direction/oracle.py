@@ -1,4 +1,4 @@
-"""The oracle predictor (issue 23 item 4; `policy_params.direction.predictor: oracle`): every
+"""The oracle predictor (`policy_params.direction.predictor: oracle`): every
 candidate's fall direction is found by simulating that candidate in a copy of the scene, from the
 control trigger to the fall's end, instead of by 004's inverted pendulum. A perfect prediction, not
 a real-time one (it costs seconds of planning per fall): it bounds what `direction` could reach with

@@ -1,4 +1,4 @@
-"""The short-rollout predictor (issue 23 item 3, 004 Sec. VI's "better model" for Take a Step;
+"""The short-rollout predictor (004 Sec. VI's "better model" for Take a Step;
 `policy_params.direction.predictor: rollout`): each candidate is simulated for a short time in a
 copy of the robot's present state with the strategy's own swing control and servo (the real swing
 timing: the foot lifts, travels, sets down), then the rest of the fall is predicted from the
