@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import html
 from collections import Counter
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,7 +14,7 @@ from fallbench.report import pages, ranking
 from fallbench.report.claims import claims_table, verdict_matrix
 from fallbench.report.detection import detection_section
 from fallbench.report.direction import direction_report, top_down_figure
-from fallbench.report.drawing import Drawn, Figure, draw
+from fallbench.report.drawing import Drawing, Drawn, Figure
 from fallbench.report.figures import draw_paper_figures, paper_points
 from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
 from fallbench.report.forest import Pool, forest_figure, forest_markdown, forest_table, paired_changes, pools
@@ -371,22 +370,10 @@ def _sections(
     numerical-validity section only."""
     per_robot = ranking.robots(runs)
     families = _families(per_robot, options.filmstrips, options.unsettled)
-    paper = _paper_jobs(families, results, out, options.paper_figures)
-    chosen = [p for f in families for p in f.picks]
-    # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
-    # (300 MB), and the renderer's libraries would otherwise count as a leak
-    pooled = {robot: pools(robot_runs) for robot, robot_runs in per_robot.items()}
-    jobs = filmstrip_figures(chosen, results, out) + _forest_jobs(pooled, families, out)
-    jobs += [job for family_jobs in paper.values() for job in family_jobs]
-    jobs += _summary_figure_jobs(runs, out) + _direction_job(runs, results, out)
-    with ThreadPoolExecutor(max_workers=1) as waiting:
-        # the worker processes draw while this one computes the tables (one process: in turn, as a
-        # renderer belongs to the thread that made it)
-        pending = waiting.submit(draw, jobs, results, out, jobs=options.jobs, vector=options.svg)
-        if options.jobs <= 1:
-            pending.result()
-        tables = _tables(runs, halved, families)
-        drawn = pending.result()
+    drawing = Drawing(results, out, options.jobs, options.svg)
+    figures, paper, pooled = _start_figures(drawing, runs, per_robot, families, results, out, options)
+    tables = _tables(runs, halved, families)  # while the workers draw
+    drawn = drawing.finish(figures)
     options.drawn, options.cached = drawn.drawn, drawn.cached
 
     def paths(prefix: str) -> list[Path]:
@@ -407,6 +394,33 @@ def _sections(
         unsettled=len(options.unsettled) if options.unsettled is not None else 0,
         **tables,
     )
+
+
+def _start_figures(
+    drawing: Drawing,
+    runs: pd.DataFrame,
+    per_robot: dict[str, pd.DataFrame],
+    families: list[Family],
+    results: Path,
+    out: Path,
+    options: Options,
+) -> tuple[list[Figure], dict[str, list[Figure]], dict[str, list[Pool]]]:
+    """Hand every figure to `drawing` as soon as its inputs are known; returns them in the report's
+    order, each family's per-point figures and the pools of families of the forest plots."""
+    strips = filmstrip_figures([p for f in families for p in f.picks], results, out)
+    # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
+    # (300 MB), and the renderer's libraries would otherwise count as a leak; then the figures
+    # that take longest, so that the workers finish together
+    drawing.add(strips[: options.jobs])
+    summary = _summary_figure_jobs(runs, out) + _direction_job(runs, results, out)
+    drawing.add(summary)
+    paper = _paper_jobs(families, results, out, options.paper_figures)
+    paper_jobs = [job for family_jobs in paper.values() for job in family_jobs]
+    drawing.add(paper_jobs)
+    pooled = {robot: pools(robot_runs) for robot, robot_runs in per_robot.items()}
+    forest = _forest_jobs(pooled, families, out)
+    drawing.add(forest + strips[options.jobs :])
+    return strips + forest + paper_jobs + summary, paper, pooled
 
 
 def _tables(runs: pd.DataFrame, halved: pd.DataFrame, families: list[Family]) -> dict:

@@ -22,6 +22,7 @@ import json
 import os
 import time
 from collections.abc import Callable, Iterable
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -169,15 +170,96 @@ def _draw_one(figure: Figure, vector: bool) -> Outcome:
     return list(drawn), "", None, cpu
 
 
-def _run_all(todo: list[Figure], vector: bool, jobs: int) -> list[Outcome]:
-    """Draw `todo`: in this process with one job, else on `jobs` worker processes (loky)."""
-    if jobs <= 1 or len(todo) <= 1:
-        return [_draw_one(figure, vector) for figure in todo]
-    from joblib import Parallel, delayed
+class Drawing:
+    """Figures drawn as they are added: each one not in the cache goes to a worker process at once
+    (with `jobs` > 1, loky's reusable executor; in this process, in turn, at `finish` with one job),
+    so that the report computes its tables while the figures added first are drawn."""
 
-    return Parallel(n_jobs=min(jobs, len(todo)), backend="loky")(
-        delayed(_draw_one)(figure, vector) for figure in todo
-    )
+    def __init__(self, results: Path, out: Path, jobs: int = 1, vector: bool = False) -> None:
+        self.out, self.jobs, self.vector = out, jobs, vector
+        self.cached = _load_cache(out)
+        self.digests = _RunDigests(results, self.cached["files"])
+        self.keys: dict[str, str] = {}
+        self.result = Drawn()
+        self.todo: dict[str, Figure] = {}  # drawn in this process at `finish` (one job)
+        self.pending: dict[str, Future] = {}  # drawn by the workers
+        self.pool: Any = None
+
+    def add(self, figures: Iterable[Figure]) -> None:
+        """Take each figure from the cache, or start drawing it."""
+        for figure in figures:
+            if figure.name in self.keys:
+                raise ValueError("figure names must be unique within a report")
+            self.keys[figure.name] = figure_key(figure, self.digests, self.vector)
+            entry = self.cached["figures"].get(figure.name)
+            if entry and entry["key"] == self.keys[figure.name] and _complete(self.out, entry):
+                self._take_cached(figure.name, entry)
+            elif self.jobs > 1:
+                self.pool = self.pool or _executor(self.jobs)
+                self.pending[figure.name] = self.pool.submit(_draw_one, figure, self.vector)
+            else:
+                self.todo[figure.name] = figure
+
+    def _take_cached(self, name: str, entry: dict[str, Any]) -> None:
+        self.result.paths[name] = [self.out / p for p in entry["files"]]
+        if entry.get("note"):
+            self.result.notes[name] = entry["note"]
+        if entry.get("payload"):
+            self.result.payloads[name] = pd.read_pickle(self.out / entry["payload"])
+        self.result.cached += 1
+
+    def finish(self, order: Iterable[Figure] = ()) -> Drawn:
+        """Wait for every figure added, save the cache; returns their files and notes, in the
+        order of `order` (the same figures) if given, else as added."""
+        outcomes = {name: _draw_one(figure, self.vector) for name, figure in self.todo.items()}
+        outcomes |= {name: future.result() for name, future in self.pending.items()}
+        for name, (paths, note, payload, cpu) in outcomes.items():
+            self._take_drawn(name, paths, note, payload, cpu)
+        self.result.drawn = len(outcomes)
+        names = [f.name for f in order] or list(self.keys)
+        if sorted(names) != sorted(self.keys):
+            raise ValueError("finish: `order` must hold the figures added")
+        self._save(names)
+        self.result.paths = {name: self.result.paths[name] for name in names}
+        return self.result
+
+    def _take_drawn(self, name: str, paths: list[Path], note: str, payload: Any, cpu: float) -> None:
+        self.result.paths[name] = paths
+        self.result.cpu_s[name] = cpu
+        if note:
+            self.result.notes[name] = note
+        if payload is not None:
+            self.result.payloads[name] = payload
+            pd.to_pickle(payload, _payload_path(self.out, self.keys[name]))
+
+    def _save(self, names: list[str]) -> None:
+        """Write the cache of these figures and delete the payloads no figure uses any more."""
+        out, result, cached = self.out, self.result, self.cached["figures"]
+        entries = {
+            name: {
+                "key": self.keys[name],
+                "files": [str(p.relative_to(out)) for p in result.paths[name]],
+                "note": result.notes.get(name, ""),
+                "cpu_s": round(result.cpu_s.get(name, cached.get(name, {}).get("cpu_s", 0.0)), 3),
+                "payload": str(_payload_path(out, self.keys[name]).relative_to(out))
+                if name in result.payloads
+                else "",
+            }
+            for name in names
+            if not _unavailable(result.notes.get(name, ""))
+        }
+        _save_cache(out, {"format": CACHE_FORMAT, "figures": entries, "files": self.digests.used})
+        kept = {e["payload"] for e in entries.values() if e["payload"]}
+        for stale in (out / PAYLOADS).glob("*.pkl") if (out / PAYLOADS).is_dir() else []:
+            if str(stale.relative_to(out)) not in kept:
+                stale.unlink()
+
+
+def _executor(jobs: int) -> Any:
+    """loky's reusable pool of `jobs` worker processes (started by the first figure sent to it)."""
+    from joblib.externals.loky import get_reusable_executor
+
+    return get_reusable_executor(max_workers=jobs)
 
 
 def draw(
@@ -190,56 +272,12 @@ def draw(
 ) -> Drawn:
     """Draw the figures whose cache key changed or whose files are missing, take the others from the
     cache in `out`; returns every figure's files (in the order given) and the notes."""
-    figures = list(figures)
-    if len({f.name for f in figures}) != len(figures):
-        raise ValueError("figure names must be unique within a report")
-    cached = _load_cache(out)
-    digests = _RunDigests(results, cached["files"])
-    keys = {f.name: figure_key(f, digests, vector) for f in figures}
-    result = Drawn()
-    todo = []
-    for figure in figures:
-        entry = cached["figures"].get(figure.name)
-        if entry and entry["key"] == keys[figure.name] and _complete(out, entry):
-            result.paths[figure.name] = [out / p for p in entry["files"]]
-            if entry.get("note"):
-                result.notes[figure.name] = entry["note"]
-            if entry.get("payload"):
-                result.payloads[figure.name] = pd.read_pickle(out / entry["payload"])
-            result.cached += 1
-        else:
-            todo.append(figure)
-    for figure, (paths, note, payload, cpu) in zip(todo, _run_all(todo, vector, jobs)):
-        result.paths[figure.name] = paths
-        result.cpu_s[figure.name] = cpu
-        if note:
-            result.notes[figure.name] = note
-        if payload is not None:
-            result.payloads[figure.name] = payload
-            pd.to_pickle(payload, _payload_path(out, keys[figure.name]))
-    result.drawn = len(todo)
+    drawing = Drawing(results, out, jobs, vector)
+    drawing.add(figures)
+    drawn = drawing.finish()
     if progress:
-        progress(result.drawn)
-    entries = {
-        f.name: {
-            "key": keys[f.name],
-            "files": [str(p.relative_to(out)) for p in result.paths[f.name]],
-            "note": result.notes.get(f.name, ""),
-            "cpu_s": round(result.cpu_s.get(f.name, cached["figures"].get(f.name, {}).get("cpu_s", 0.0)), 3),
-            "payload": str(_payload_path(out, keys[f.name]).relative_to(out))
-            if f.name in result.payloads
-            else "",
-        }
-        for f in figures
-        if not _unavailable(result.notes.get(f.name, ""))
-    }
-    _save_cache(out, {"format": CACHE_FORMAT, "figures": entries, "files": digests.used})
-    kept = {e["payload"] for e in entries.values() if e["payload"]}
-    for stale in (out / PAYLOADS).glob("*.pkl") if (out / PAYLOADS).is_dir() else []:
-        if str(stale.relative_to(out)) not in kept:
-            stale.unlink()
-    result.paths = {f.name: result.paths[f.name] for f in figures}
-    return result
+        progress(drawn.drawn)
+    return drawn
 
 
 def _complete(out: Path, entry: dict[str, Any]) -> bool:

@@ -19,6 +19,7 @@ from fallbench.robots import DEFAULT_ROBOT
 DASHES = ("-", "--", "-.", ":")  # per policy, in drawing order
 GAINS_ZOOM = 0.25  # s after impact shown in Fig. 5's landing column (002's Fig. 5 spans about this)
 DPI = 110
+PNG_COMPRESSION = 3  # zlib: the same pixels as the default 6, files 2 % larger, saved ~40 % faster
 PLOT_BUCKETS = 800  # min/max pairs a time series keeps (`envelope`): about the axes' width in pixels
 MARGINS = {"left": 0.11, "right": 0.97, "bottom": 0.12, "top": 0.91, "hspace": 0.35, "wspace": 0.22}
 _VECTOR = [False]  # whether `_save` also writes an SVG (`fallbench report --svg`); set per process
@@ -69,7 +70,8 @@ def _save(fig, out: Path, stem: str, margins: dict[str, float] | None = None) ->
     else:
         fig.subplots_adjust(**(MARGINS | margins))
     paths = [out / f"{stem}.png"] + ([out / f"{stem}.svg"] if _VECTOR[0] else [])
-    for path in paths:
+    fig.savefig(paths[0], dpi=DPI, pil_kwargs={"compress_level": PNG_COMPRESSION})
+    for path in paths[1:]:
         fig.savefig(path, dpi=DPI)
     plt.close(fig)
     return paths

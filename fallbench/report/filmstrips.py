@@ -86,7 +86,8 @@ def family_picks(
     scores = damage(group).dropna()
     if scores.empty:
         return []
-    scored = group.loc[scores.index].assign(damage=scores).sort_values("run_id")
+    shown = ["run_id", "pre_impact", "policy", "point"]  # what a Pick keeps: rows of 4 cells, not hundreds
+    scored = group.loc[scores.index, shown].assign(damage=scores).sort_values("run_id")
 
     def pick(role: str, index) -> Pick:
         row = scored.loc[index]

@@ -49,16 +49,19 @@ def paired_changes(runs: pd.DataFrame, done: Ranked | None = None) -> pd.DataFra
     (`fell` and counts: mean) of the paired changes and its 95 % interval, the number of pairs,
     the reference's median on this row's own pairs and how many of them are 0; then per row its
     probability of improvement (`IMPROVEMENT`); best mean rank first."""
+    runs = paired.narrow(runs, measures_for(runs))
     ok = runs[runs.status == "ok"]
     measures = measures_for(ok)
     if paired.arm_runs(ok, REFERENCE).empty:
         return pd.DataFrame(columns=COLUMNS)
     done = done or ranked(runs)
+    columns = [m.column for m in measures]
+    reference_runs = paired.arm_runs(ok, REFERENCE, columns)
     rows = []
     for arm in arm_order(runs, done):
         if arm == REFERENCE:
             continue
-        pair_rows = paired.pairs(ok, arm, [m.column for m in measures])
+        pair_rows = paired.pairs(ok, arm, columns, reference_runs)
         base = {"pre_impact": arm[0], "policy": arm[1], "name": row_name(done, arm)}
         for measure in measures:
             change = paired.change(pair_rows, measure.column)

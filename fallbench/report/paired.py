@@ -42,6 +42,19 @@ def keys_of(runs: pd.DataFrame) -> list[str]:
     return [k for k in PAIR_KEYS if k in runs]
 
 
+LABELS = ("robot", "scenario", "point", "pre_impact", "policy", "status")  # what rows are selected by
+
+
+def narrow(runs: pd.DataFrame, measures: Sequence[Measure]) -> pd.DataFrame:
+    """Only the columns pairing and ranking read (pair keys, strategy, policy, status, the measures
+    and each strategy's recorded choice), the labels as Python strings: a store has hundreds of
+    columns, every row selection copies them all, and Arrow-backed strings are the slowest."""
+    wanted = [*keys_of(runs), "pre_impact", "policy", "status", *(m.column for m in measures)]
+    wanted += [c for c in runs.columns if c.endswith("_strategy")]
+    kept = runs[list(dict.fromkeys(c for c in wanted if c in runs))]
+    return kept.astype({c: object for c in LABELS if c in kept})
+
+
 def arm_runs(ok: pd.DataFrame, arm: Arm, columns: Sequence[str] | None = None) -> pd.DataFrame:
     """The arm's successful runs, one per pair key (only the keys and `columns`, if given: a store
     has hundreds of columns, and copying them all made pairing the report's slowest table)."""
@@ -50,17 +63,19 @@ def arm_runs(ok: pd.DataFrame, arm: Arm, columns: Sequence[str] | None = None) -
     return (ok.loc[mine] if columns is None else ok.loc[mine, keys + list(columns)]).drop_duplicates(keys)
 
 
-def pairs(ok: pd.DataFrame, arm: Arm, columns: Sequence[str]) -> pd.DataFrame:
+def pairs(
+    ok: pd.DataFrame, arm: Arm, columns: Sequence[str], reference: pd.DataFrame | None = None
+) -> pd.DataFrame:
     """The arm's runs joined with their reference run (`<column>:reference`); runs without one are
-    left out."""
-    reference = arm_runs(ok, REFERENCE, columns)
+    left out. `reference`: `arm_runs(ok, REFERENCE, columns)`, if already selected."""
+    reference = arm_runs(ok, REFERENCE, columns) if reference is None else reference
     return arm_runs(ok, arm, columns).merge(reference, on=keys_of(ok), suffixes=("", ":reference"))
 
 
 def change(pair_rows: pd.DataFrame, column: str) -> np.ndarray:
     """The arm's value minus its reference's, per pair (NaN where either is missing)."""
-    ours = pair_rows[column].astype(float).to_numpy()
-    return ours - pair_rows[f"{column}:reference"].astype(float).to_numpy()
+    ours = pair_rows[column].to_numpy(dtype=float)
+    return ours - pair_rows[f"{column}:reference"].to_numpy(dtype=float)
 
 
 def identical_groups(ok: pd.DataFrame, arms: Sequence[Arm], columns: Sequence[str]) -> list[list[Arm]]:

@@ -85,11 +85,14 @@ def ranked(runs: pd.DataFrame) -> Ranked:
     """Rank the family's arms: groups of identical arms merged (`paired.identical_groups`), each
     row's mean rank over the damage measures, and what pairing with `none` + `stiff` says of it."""
     found = measures_for(runs)
+    runs = paired.narrow(runs, found)
     ok = runs[runs.status == "ok"]
     groups = paired.identical_groups(ok, _arms(ok), [m.column for m in found])
     table = estimates(runs, [g[0] for g in groups])
     same = {g[0]: g[1:] for g in groups}
-    harm = {arm: _harm(ok, arm, found) for arm in table}
+    harm_measures = [m for m in found if m.column in paired.HARM_MEASURES]
+    reference = paired.arm_runs(ok, paired.REFERENCE, [m.column for m in harm_measures])
+    harm = {arm: _harm(ok, arm, harm_measures, reference) for arm in table}
     if not table:
         return Ranked(pd.DataFrame(), table, found, same, harm)
     values = pd.DataFrame({arm: {m.column: e[m.column].value for m in found} for arm, e in table.items()}).T
@@ -111,13 +114,15 @@ def ranked(runs: pd.DataFrame) -> Ranked:
     return Ranked(ranking, table, found, same, harm)
 
 
-def _harm(ok: pd.DataFrame, arm: Arm, found: list[Measure]) -> list[tuple[str, Estimate]]:
-    """The harm measures on which the arm's paired change against `none` + `stiff` is clearly worse."""
+def _harm(
+    ok: pd.DataFrame, arm: Arm, harm_measures: list[Measure], reference: pd.DataFrame
+) -> list[tuple[str, Estimate]]:
+    """The harm measures on which the arm's paired change against `none` + `stiff` (`reference`:
+    its runs, `paired.arm_runs`) is clearly worse."""
     if arm == paired.REFERENCE:
         return []
     worse = []
-    harm_measures = [m for m in found if m.column in paired.HARM_MEASURES]
-    pair_rows = paired.pairs(ok, arm, [m.column for m in harm_measures])
+    pair_rows = paired.pairs(ok, arm, [m.column for m in harm_measures], reference)
     for measure in harm_measures:
         estimate = bootstrap(paired.change(pair_rows, measure.column), measure.change)
         if paired.clearly_worse(estimate, measure.lower_is_better):

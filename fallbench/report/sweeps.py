@@ -100,8 +100,9 @@ def _sweep_figure(group: pd.DataFrame, param: str, robot: str, scenario: str):
 
 def _sweep_line(ax, lines, param, metric, strategy, policy, scattered: bool, angular: bool) -> None:
     """One arm's medians per swept value, bars for their intervals."""
-    values = sorted(lines[param].dropna().unique())
-    estimates = [bootstrap(lines.loc[lines[param] == v, metric].astype(float)) for v in values]
+    per_value = lines.groupby(param)[metric]  # the swept values in order, NaN left out
+    values = list(per_value.groups)
+    estimates = [bootstrap(runs.to_numpy(dtype=float)) for _, runs in per_value]
     x = np.radians(values) if angular else np.asarray(values, dtype=float)
     y = np.array([e.value for e in estimates])
     style = {"color": colour(policy), "fillstyle": "none" if strategy == "none" else "full"}
