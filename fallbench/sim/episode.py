@@ -41,6 +41,7 @@ from fallbench.sim.events import (
     ImpactDetector,
     SignalLog,
     TiltDetector,
+    capture_point_distance,
 )
 from fallbench.sim.impacts import ImpactLog
 from fallbench.sim.recorder import Recording, Trace
@@ -147,6 +148,7 @@ class DetectorInputs(NamedTuple):
     com: np.ndarray  # m
     com_velocity: np.ndarray  # m/s
     support: np.ndarray  # (n, 2) m, ground points of the feet in contact
+    distance: float  # m, the capture point's signed distance to their polygon (NaN: no support)
 
 
 class Sensed(NamedTuple):
@@ -248,7 +250,7 @@ class Episode:
         if watching_fall or self.signals.watching:
             inputs = self.detector_inputs()
             body = bool((inputs.found & self.not_feet).any())
-            self.signals.update(t, *inputs[1:], body)
+            self.signals.update(t, inputs.distance, inputs.torso, inputs.imu_acc, body)
             if watching_fall:
                 self.detect_fall(t, inputs)
             self.start_strategy(t)
@@ -295,16 +297,20 @@ class Episode:
 
     def detector_inputs(self) -> DetectorInputs:
         """What the fall detectors read at this control step: contact sensors, torso frame,
-        accelerometer, CoM position and velocity, and the ground points of the feet in contact."""
+        accelerometer, CoM position and velocity, the ground points of the feet in contact and the
+        capture point's distance to their polygon."""
         found, world = self.found(), self.world
         mujoco.mju_copy(self.torso_rotation, self.data.xmat[world.torso_body])
+        com, com_velocity = world.sensor(self.sensor_row, "com_pos"), world.sensor(self.sensor_row, "com_vel")
+        support = self.support.points(self.data, found)
         return DetectorInputs(
             found,
             world.robot.torso_frame(self.torso_rotation.reshape(3, 3)),
             world.sensor(self.sensor_row, "imu_acc"),
-            world.sensor(self.sensor_row, "com_pos"),
-            world.sensor(self.sensor_row, "com_vel"),
-            self.support.points(self.data, found),
+            com,
+            com_velocity,
+            support,
+            capture_point_distance(com, com_velocity, support),  # once, for the detector and the log
         )
 
     def detect_fall(self, t: float, inputs: DetectorInputs) -> None:
@@ -312,7 +318,15 @@ class Episode:
         note the bodies already touching."""
         detected = self.fall.time is not None
         if (
-            self.fall.update(t, inputs.torso, inputs.imu_acc, inputs.com, inputs.com_velocity, inputs.support)
+            self.fall.update(
+                t,
+                inputs.torso,
+                inputs.imu_acc,
+                inputs.com,
+                inputs.com_velocity,
+                inputs.support,
+                inputs.distance,
+            )
             and not detected
         ):
             self.seen = self.whole_feet(inputs.found)

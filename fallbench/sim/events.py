@@ -37,22 +37,36 @@ def capture_point(com: np.ndarray, com_velocity: np.ndarray, gravity: float = GR
     return np.asarray(com[:2], dtype=float) + np.asarray(com_velocity[:2], dtype=float) / omega0
 
 
+Point = tuple[float, float]  # m, on the ground plane
+
+
+def capture_point_distance(
+    com: np.ndarray, com_velocity: np.ndarray, support_points: np.ndarray, gravity: float = GRAVITY
+) -> float:
+    """m: the capture point's signed distance to the support polygon of `support_points` (positive
+    outside, see `signed_distance`); NaN without support points (airborne)."""
+    if not len(support_points):
+        return math.nan
+    return signed_distance(capture_point(com, com_velocity, gravity), support_polygon(support_points))
+
+
 def support_polygon(points: np.ndarray) -> np.ndarray:
     """Vertices (k, 2), counter-clockwise, of the convex hull of ground-plane points (n, 2).
     Fewer than three points, or collinear ones, give the degenerate hull: a segment or a point.
 
     Andrew's monotone chain: the hull of a few foot corners, once per control step until impact;
     scipy's Qhull would do it too, but importing scipy.spatial adds ~0.3 s to every run's start-up."""
-    points = np.unique(np.asarray(points, dtype=float)[:, :2], axis=0)  # sorted by x, then y
-    if len(points) <= 2:
-        return points
-    lower, upper = _chain(points), _chain(points[::-1])
+    # distinct points sorted by x, then y, as Python floats (the same arithmetic as NumPy's, faster)
+    ordered: list[Point] = sorted(set(map(tuple, np.asarray(points, dtype=float)[:, :2].tolist())))
+    if len(ordered) <= 2:
+        return np.array(ordered, dtype=float).reshape(-1, 2)
+    lower, upper = _chain(ordered), _chain(ordered[::-1])
     return np.array(lower[:-1] + upper[:-1])
 
 
-def _chain(points: np.ndarray) -> list[np.ndarray]:
+def _chain(points: list[Point]) -> list[Point]:
     """One half of the hull: the points where the chain turns left (collinear ones dropped)."""
-    chain: list[np.ndarray] = []
+    chain: list[Point] = []
     for point in points:
         while len(chain) >= 2 and _cross(chain[-2], chain[-1], point) <= 0:
             chain.pop()
@@ -60,8 +74,8 @@ def _chain(points: np.ndarray) -> list[np.ndarray]:
     return chain
 
 
-def _cross(origin: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    return float((a[0] - origin[0]) * (b[1] - origin[1]) - (a[1] - origin[1]) * (b[0] - origin[0]))
+def _cross(origin: Point, a: Point, b: Point) -> float:
+    return (a[0] - origin[0]) * (b[1] - origin[1]) - (a[1] - origin[1]) * (b[0] - origin[0])
 
 
 def signed_distance(point: np.ndarray, polygon: np.ndarray) -> float:
@@ -89,10 +103,19 @@ class CapturePointDetector:
     time: float | None = None
     distance: float = -math.inf  # m, capture point's signed distance to the polygon at the last update
 
-    def update(self, t: float, com: np.ndarray, com_velocity: np.ndarray, support_points: np.ndarray) -> bool:
+    def update(
+        self,
+        t: float,
+        com: np.ndarray,
+        com_velocity: np.ndarray,
+        support_points: np.ndarray,
+        distance: float | None = None,
+    ) -> bool:
+        """`distance` (m, `capture_point_distance` of the same state), when the caller has it."""
         if self.time is None and len(support_points):
-            xi = capture_point(com, com_velocity, self.gravity)
-            self.distance = signed_distance(xi, support_polygon(support_points))
+            if distance is None:
+                distance = capture_point_distance(com, com_velocity, support_points, self.gravity)
+            self.distance = distance
             if self.distance > self.margin:
                 self.time = t
         return self.time is not None
@@ -155,9 +178,10 @@ class FallDetector:
         com: np.ndarray,
         com_velocity: np.ndarray,
         support_points: np.ndarray,
+        distance: float | None = None,
     ) -> bool:
         """Feed every detector one control step; True once the fall is declared."""
-        self.capture.update(t, com, com_velocity, support_points)
+        self.capture.update(t, com, com_velocity, support_points, distance)
         self.tilt.update(t, torso_rotation)
         self.freefall.update(t, imu_acc)
         detectors = {"capture_point": self.capture, "tilt": self.tilt, "freefall": self.freefall}
@@ -213,25 +237,14 @@ class SignalLog:
         return self.body_contact_time is None
 
     def update(
-        self,
-        t: float,
-        torso_rotation: np.ndarray,
-        imu_acc: np.ndarray,
-        com: np.ndarray,
-        com_velocity: np.ndarray,
-        support_points: np.ndarray,
-        body_touching: bool,
+        self, t: float, distance: float, torso_rotation: np.ndarray, imu_acc: np.ndarray, body_touching: bool
     ) -> None:
+        """One control step: `distance` as `capture_point_distance` gives it (m, NaN without support)."""
         if not self.watching:
             return
         if body_touching:
             self.body_contact_time = t
             return
-        distance = (
-            signed_distance(capture_point(com, com_velocity), support_polygon(support_points))
-            if len(support_points)
-            else math.nan
-        )
         self.rows.append((t, distance, tilt_deg(torso_rotation), float(np.linalg.norm(imu_acc))))
 
     def array(self) -> np.ndarray:
