@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from fallbench.postimpact.adaptive_qp.policy import AdaptiveQPPolicy
+from fallbench.postimpact.adaptive_qp_hold import AdaptiveQPHoldPolicy
 from fallbench.postimpact.base import GainPolicy
 from fallbench.postimpact.oneshot import OneshotPolicy
 from fallbench.postimpact.stiff import StiffPolicy, gain_scale
@@ -108,6 +109,7 @@ POLICIES: dict[str, type[GainPolicy]] = Registry(
         "oneshot": OneshotPolicy,
         "zero": ZeroPolicy,
         "adaptive_qp": AdaptiveQPPolicy,
+        "adaptive_qp_hold": AdaptiveQPHoldPolicy,
     },
     "policy",
 )
