@@ -9,7 +9,7 @@ import pinocchio as pin
 from fallbench.dynamics.builder import QPBuilder
 from fallbench.dynamics.contacts import ContactSet, friction_generators
 from fallbench.dynamics.limits.contact import ContactLimit
-from fallbench.dynamics.limits.joint import QDD_BOUND, JointLimit
+from fallbench.dynamics.limits.joint import QDD_BOUND, JointLimit, bounded_reference, inner_range, servo_lag
 from fallbench.dynamics.limits.limit import LimitRows, Space
 from fallbench.dynamics.limits.torque import TorqueLimit, TorqueMap
 from fallbench.dynamics.model import PinocchioModel
@@ -39,6 +39,105 @@ def test_a_joint_at_its_range_end_can_only_turn_back(robot: PinocchioModel) -> N
     assert above[robot.actuated_v[0]] == 0.0 and below[robot.actuated_v[1]] == 0.0
     assert np.all(below >= 0.0) and np.all(above >= 0.0)
     np.testing.assert_array_equal(rows.upper[:6], QDD_BOUND)
+
+
+def _talos_range(robot: PinocchioModel) -> np.ndarray:
+    """The actuated joints' ranges (rad, (actuators, 2)) in actuator order."""
+    model = robot.model
+    return np.column_stack([model.lowerPositionLimit[7:], model.upperPositionLimit[7:]])[robot.actuated_v - 6]
+
+
+def _joint_end(
+    rows: LimitRows, robot: PinocchioModel, q: np.ndarray, v: np.ndarray, horizon: float
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each actuated joint's position (rad) and speed (rad/s) at the end of the horizon under the
+    lowest and the highest acceleration the rows allow."""
+    joints, rates = q[robot.actuated_v + 1], v[robot.actuated_v]
+    return [
+        (joints + rates * horizon + qdd * horizon**2 / 2, rates + qdd * horizon)
+        for qdd in (rows.lower[robot.actuated_v], rows.upper[robot.actuated_v])
+    ]
+
+
+def _random_state(robot: PinocchioModel, band: np.ndarray, rng: np.random.Generator) -> tuple:
+    """A configuration with every actuated joint inside `band`, at up to 3 rad/s."""
+    q, v = pin.neutral(robot.model), np.zeros(robot.model.nv)
+    q[robot.actuated_v + 1] = rng.uniform(band[:, 0], band[:, 1])
+    v[robot.actuated_v] = rng.uniform(-3.0, 3.0, len(robot.actuated_v))
+    return q, v
+
+
+def test_a_margin_keeps_every_joint_inside_the_shrunk_range_over_the_horizon(robot: PinocchioModel) -> None:
+    """From random states inside [lo + margin, hi - margin], both ends of every acceleration interval
+    leave each joint within that band at the end of the horizon (with a servo lag, its rest point
+    q + lag q_dot too), and the interval is never empty."""
+    joint_range, margin, horizon = _talos_range(robot), 0.05, 0.02
+    band, rng = inner_range(joint_range, margin), np.random.default_rng(3)
+    lag = rng.uniform(0.0, 0.02, len(joint_range))
+    for servo in (np.zeros(0), lag):
+        for _ in range(30):
+            q, v = _random_state(robot, band, rng)
+            rows = JointLimit(joint_range, horizon, margin, servo).compute(RobotState.measure(robot, q, v))
+            assert np.all(rows.lower <= rows.upper)
+            for position, rate in _joint_end(rows, robot, q, v, horizon):
+                rest = position + (rate * servo if len(servo) else 0.0)
+                assert np.all(rest >= band[:, 0] - 1e-9) and np.all(rest <= band[:, 1] + 1e-9)
+
+
+def test_a_joint_inside_the_margin_may_stay_but_not_go_deeper(robot: PinocchioModel) -> None:
+    """At rest on hi - margin a joint has no slack upward; at rest halfway into the margin it still
+    has none (it is not forced out: the servo reference is, `bounded_reference`), and it may turn
+    back; moving deeper at 1 rad/s it must stop within the horizon."""
+    joint_range, margin, horizon = _talos_range(robot), 0.05, 0.02
+    q, v = pin.neutral(robot.model), np.zeros(robot.model.nv)
+    q[robot.actuated_v + 1] = joint_range.mean(axis=1)
+    first, second, third = robot.actuated_v[:3]
+    q[first + 1], q[second + 1] = joint_range[0, 1] - margin, joint_range[1, 1] - margin / 2
+    q[third + 1], v[third] = joint_range[2, 1] - margin / 2, 1.0
+    rows = JointLimit(joint_range, horizon, margin).compute(RobotState.measure(robot, q, v))
+    assert rows.upper[first] == 0.0 and rows.upper[second] == 0.0 and rows.lower[second] < 0.0
+    np.testing.assert_allclose(rows.upper[third], -2 * 1.0 / horizon)
+
+
+def test_a_servo_lag_slows_a_joint_heading_for_its_range_end(robot: PinocchioModel) -> None:
+    """0.1 rad short of its upper end at 4 rad/s: without lag the joint may keep its speed (it stops
+    short of the end), with a 10 ms lag it must brake so that q + lag q_dot is on the end at the
+    end of the horizon."""
+    joint_range, horizon, lag = _talos_range(robot), 0.02, 0.01
+    q, v = pin.neutral(robot.model), np.zeros(robot.model.nv)
+    k = robot.actuated_v[0]
+    q[robot.actuated_v + 1] = joint_range.mean(axis=1)
+    q[k + 1], v[k] = joint_range[0, 1] - 0.1, 4.0
+    state = RobotState.measure(robot, q, v)
+    assert JointLimit(joint_range, horizon).compute(state).upper[k] > 0.0
+    servo = np.full(len(joint_range), lag)
+    upper = JointLimit(joint_range, horizon, 0.0, servo).compute(state).upper[k]
+    travel, rate = 4.0 * horizon + upper * horizon**2 / 2, 4.0 + upper * horizon  # from 0.1 short
+    assert upper < 0.0
+    np.testing.assert_allclose(travel + lag * rate, 0.1)
+
+
+def test_a_range_narrower_than_two_margins_shrinks_to_its_middle() -> None:
+    band = inner_range(np.array([[0.0, 0.06], [-1.0, 1.0]]), 0.05)
+    np.testing.assert_allclose(band, [[0.03, 0.03], [-0.95, 0.95]])
+
+
+def test_a_reference_on_a_range_end_carries_no_velocity_past_it() -> None:
+    """Servo references: a position past the band is clipped onto it and its outward velocity
+    dropped; a velocity whose lead (lag x qd_ref) would carry the rest point past the band is cut to
+    reach it exactly; inward velocities and lag-free joints are left alone."""
+    band = np.array([[-1.0, 1.0]] * 4)
+    lag = np.array([0.01, 0.01, 0.01, 0.0])
+    q_ref, qd_ref = bounded_reference(
+        np.array([1.2, 0.95, 0.9, 2.0]), np.array([3.0, 10.0, -5.0, 7.0]), band, lag
+    )
+    np.testing.assert_allclose(q_ref, [1.0, 0.95, 0.9, 1.0])
+    np.testing.assert_allclose(qd_ref, [0.0, 5.0, -5.0, 7.0])
+    assert np.all(q_ref[:3] + lag[:3] * qd_ref[:3] <= band[:3, 1] + 1e-12)
+
+
+def test_the_servo_lag_is_damping_over_stiffness() -> None:
+    np.testing.assert_allclose(servo_lag(np.array([1000.0, 0.0]), np.array([10.0, 1.0])), [0.01, 0.0])
 
 
 def test_a_resting_flat_foot_gives_three_contact_rows(robot: PinocchioModel) -> None:

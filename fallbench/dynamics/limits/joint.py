@@ -1,8 +1,10 @@
-"""Joint-range limits as joint-acceleration bounds over a short horizon."""
+"""Joint-range limits as joint-acceleration bounds over a short horizon (002 Sec. IV: joint limits
+among the reshaping QP's constraints), optionally inside a margin and with the lag of a position
+servo, so that a servo tracking the QP's motion stays inside the range."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -15,38 +17,85 @@ QDD_BOUND = 1e4  # rad/s^2: bounds beyond this add nothing and would only worsen
 
 @dataclass
 class JointLimit(Limit):
+    """Every actuated joint's servo rest point q + lag q_dot within [lo + margin, hi - margin] at the
+    end of the horizon, if q_ddot is held over it. A PD servo K (q_ref - q) + B (qd_ref - q_dot) at
+    rest settles at q_ref + (B / K) qd_ref: with lag = B / K (s) a joint heading for a range end is
+    slowed to at most (distance to it) / lag, so that the servo does not carry it past (a velocity
+    bound near the ends only). margin 0 and lag 0: the range itself, reached exactly."""
+
     joint_range: np.ndarray  # (actuators, 2) rad, per actuator (MuJoCo order)
     horizon: float  # s
+    margin: float = 0.0  # rad kept from each end of the range
+    lag: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s, per actuator; empty: 0
 
     def compute(self, state: RobotState) -> LimitRows:
-        """Bounds on q_ddot (rad/s^2, all nv entries) that keep every actuated joint within its range
-        over the horizon (`joint_acceleration_bounds`)."""
+        """Bounds on q_ddot (rad/s^2, all nv entries) that keep every actuated joint's servo rest
+        point within its range less the margin over the horizon (`joint_acceleration_bounds`)."""
+        lag = self.lag if len(self.lag) else np.zeros(len(self.joint_range))
+        band = reachable_band(self.joint_range, self.margin, state.q[state.robot.actuated_v + 1])
         lower, upper = joint_acceleration_bounds(
-            state.q, state.v, state.robot.actuated_v, self.joint_range, self.horizon
+            state.q, state.v, state.robot.actuated_v, band, self.horizon, lag
         )
         return LimitRows.bounds(Space.ACCELERATION, lower, upper)
 
 
+def inner_range(joint_range: np.ndarray, margin: float) -> np.ndarray:
+    """[lo + margin, hi - margin] per joint (rad, (n, 2)); a range narrower than 2 margin shrinks to
+    its midpoint."""
+    middle = joint_range.mean(axis=1)
+    low = np.minimum(joint_range[:, 0] + margin, middle)
+    high = np.maximum(joint_range[:, 1] - margin, middle)
+    return np.column_stack([low, high])
+
+
+def reachable_band(joint_range: np.ndarray, margin: float, q: np.ndarray) -> np.ndarray:
+    """The inner range (rad, (n, 2)) widened to each joint's position q (rad) where it lies between
+    the inner range and the range's end: a joint in the margin may stay there but not go deeper
+    (forcing it out within the horizon asked for accelerations the motors lack, and the QP failed)."""
+    band = inner_range(joint_range, margin)
+    low = np.minimum(band[:, 0], np.maximum(q, joint_range[:, 0]))
+    high = np.maximum(band[:, 1], np.minimum(q, joint_range[:, 1]))
+    return np.column_stack([low, high])
+
+
+def servo_lag(kp: np.ndarray, kd: np.ndarray) -> np.ndarray:
+    """B / K per joint (s): how far (rad) a PD servo's rest point q_ref + (B / K) qd_ref leads its
+    position reference per rad/s of velocity reference; 0 where K is 0."""
+    return np.divide(kd, kp, out=np.zeros(len(kp)), where=kp > 0)
+
+
+def bounded_reference(
+    q_ref: np.ndarray, qd_ref: np.ndarray, band: np.ndarray, lag: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Servo references (rad, rad/s) with q_ref inside `band` ((n, 2) rad) and the servo's rest point
+    q_ref + lag qd_ref (lag in s) too: a reference clipped at a range end carries no velocity past it."""
+    position = np.clip(q_ref, band[:, 0], band[:, 1])
+    lead = qd_ref * lag
+    lead = np.clip(lead, band[:, 0] - position, band[:, 1] - position)
+    velocity = np.divide(lead, lag, out=qd_ref.copy(), where=lag > 0)
+    return position, velocity
+
+
 @compiled
 def joint_acceleration_bounds(
-    q: np.ndarray, v: np.ndarray, actuated_v: np.ndarray, joint_range: np.ndarray, horizon: float
+    q: np.ndarray,
+    v: np.ndarray,
+    actuated_v: np.ndarray,
+    joint_range: np.ndarray,
+    horizon: float,
+    lag: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """q_ddot bounds (rad/s^2, all nv velocity entries) from the configuration q and velocity v
-    (Pinocchio's): on the actuated joints (velocity indices actuated_v, ranges joint_range in the
-    same order) those that keep q + v h + q_ddot h^2 / 2 within range over `horizon` h (s, never an
-    empty interval), +-QDD_BOUND elsewhere."""
+    (Pinocchio's): on the actuated joints (velocity indices actuated_v, ranges joint_range and servo
+    lags lag (s) in the same order) those that keep q_h + lag v_h within range, with q_h = q + v h +
+    q_ddot h^2 / 2 and v_h = v + q_ddot h at the end of the horizon h (s), never an empty interval;
+    +-QDD_BOUND elsewhere."""
     low, high = np.full(len(v), -QDD_BOUND), np.full(len(v), QDD_BOUND)
     for k in range(len(actuated_v)):
         i = actuated_v[k]
-        position, rate = (
-            q[7 + i - 6],
-            v[i],
-        )  # a 1-dof joint's q index is its v index + 1 (the base's quaternion)
-        first = min(
-            max(2 * (joint_range[k, 0] - position - rate * horizon) / horizon**2, -QDD_BOUND), QDD_BOUND
-        )
-        second = min(
-            max(2 * (joint_range[k, 1] - position - rate * horizon) / horizon**2, -QDD_BOUND), QDD_BOUND
-        )
+        position, rate = q[i + 1], v[i]  # a 1-dof joint's q index is its v index + 1 (the base's quaternion)
+        reach, gain = horizon + lag[k], horizon**2 + 2 * lag[k] * horizon
+        first = min(max(2 * (joint_range[k, 0] - position - rate * reach) / gain, -QDD_BOUND), QDD_BOUND)
+        second = min(max(2 * (joint_range[k, 1] - position - rate * reach) / gain, -QDD_BOUND), QDD_BOUND)
         low[i], high[i] = min(first, second), max(first, second)
     return low, high

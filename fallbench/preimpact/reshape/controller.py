@@ -24,6 +24,7 @@ import numpy as np
 from fallbench.dynamics.contacts import ContactSet, environment_contacts
 from fallbench.dynamics.dense_qp import make_solver
 from fallbench.dynamics.fall_direction import FallDirection, fall_class, heading
+from fallbench.dynamics.limits.joint import bounded_reference, inner_range, servo_lag
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.dynamics.objective import SetPoint
 from fallbench.dynamics.state import RobotState
@@ -89,6 +90,12 @@ class ReshapeConfig:
     w_lambda: float = 1e-6
     w_qdd: float = 1e-4
     w_contact: float = 100.0  # contact points neither sinking in nor lifting off (a cost, not a constraint)
+    # Off by default (docs/methods/reshape.md, "Joint-limit margin"): the QP keeps every joint this far
+    # inside its range, and the servo reference too; a joint already in the margin may stay there.
+    joint_limit_margin: float = 0.0  # rad
+    # The servo reference's velocity is cut so that the PD's rest point q_ref + (B / K) qd_ref stays
+    # inside the range less the margin: a reference held on a range end carries no velocity past it.
+    joint_limit_servo_lag: bool = False
     pivot: Literal["contacts", "knees", "knees_and_buttocks"] = (
         "contacts"  # the landing search's stick, see _stick
     )
@@ -104,6 +111,8 @@ class ReshapeConfig:
             raise ValueError(f"reshape: pivot must be one of {', '.join(PIVOTS)}, not {self.pivot!r}")
         if not 0.0 <= self.elbow_back <= 1.0:
             raise ValueError(f"reshape: elbow_back must be in [0, 1], not {self.elbow_back}")
+        if self.joint_limit_margin < 0.0:
+            raise ValueError(f"reshape: joint_limit_margin must be >= 0, not {self.joint_limit_margin}")
 
 
 @dataclass
@@ -149,6 +158,9 @@ class ReshapeController:
         ]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
         self.legs = np.isin(self.P.actuated_v, self.leg_v)  # actuators of the legs
+        self.band = inner_range(world.joint_range, self.cfg.joint_limit_margin)  # rad
+        lag = servo_lag(world.default_kp, world.default_kd)  # s
+        self.lag = lag if self.cfg.joint_limit_servo_lag else np.zeros(world.model.nu)
         self.qp = make_solver(self.cfg.solver, self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
         self.direction: FallDirection | None = None
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
@@ -213,6 +225,7 @@ class ReshapeController:
             cfg.w_lambda,
             cfg.w_qdd,
             cfg.w_contact,
+            cfg.joint_limit_margin,
         )
         solving = time.perf_counter()
         status, solved, accelerations = solve_reshape(self.qp, problem)
@@ -220,12 +233,9 @@ class ReshapeController:
         qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
-        self.q_ref = np.clip(
-            self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2,
-            world.joint_range[:, 0],
-            world.joint_range[:, 1],
+        self.q_ref, self.qd_ref = bounded_reference(
+            self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2, self.qd_ref + qdd * dt, self.band, self.lag
         )
-        self.qd_ref = self.qd_ref + qdd * dt
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
 

@@ -8,8 +8,8 @@ it would leave as variables are many and the cost becomes dense).
 
 Constraints: floating-base rows of the dynamics, H_b q_ddot + C_b = (J' G)_b lambda; limits from
 the shared layer: every motor's torque within its limit (`TorqueLimit`, the torques given by the
-motor rows of the dynamics), joint accelerations that keep each joint inside its range over a short
-horizon (`JointLimit`).
+motor rows of the dynamics), joint accelerations that keep each joint inside its range less a
+margin over a short horizon (`JointLimit`).
 Cost: sum of weighted set-point tasks |J q_ddot + J_dot q_dot + kp g + kv g_dot|^2 (eq. 1); contact
 points neither sinking in nor lifting off within one control step, as a stiff cost (as equalities
 they made 12 % of the steps of the shipped sweep fail, mostly once a foot tipped over an edge; as
@@ -49,8 +49,10 @@ def build_reshape_problem(
     w_lambda: float,
     w_qdd: float,
     w_contact: float,
+    joint_margin: float,
 ) -> ReshapeProblem:
-    """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s)."""
+    """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s), the
+    joints kept joint_margin (rad) inside their ranges."""
     state = terms.state
     nv = state.model.nv
     assert terms.H is not None, "model_terms(..., inertia=True)"
@@ -66,7 +68,8 @@ def build_reshape_problem(
 
     qp.equal(base_rows, base_values)
     qp.limit(TorqueLimit(torque_limit).compute(state))
-    qp.limit(JointLimit(joint_range, LIMIT_HORIZON_STEPS * dt).compute(state))
+    horizon = LIMIT_HORIZON_STEPS * dt
+    qp.limit(JointLimit(joint_range, horizon, joint_margin).compute(state))
     qp.bound(lam, 0.0, np.inf)
 
     costs = list(tasks)
