@@ -72,7 +72,7 @@ def with_qp_solver(scenario: Scenario, solver: str) -> Scenario:
     return scenario.model_copy(update={"policy_params": {**scenario.policy_params, **params}})
 
 
-# target name -> (figure key, comparison, limit), from the issue that set them
+# target name -> (figure key, comparison, limit): the targets docs/bench.md states
 TARGETS: dict[str, tuple[str, str, float]] = {
     **{f"{p} episode / pure physics": (f"episode_ratio_{p}", "<=", 1.15) for p in FIXED},
     **{
@@ -284,7 +284,7 @@ def _sweep_file(runs: int, folder: Path) -> Path:
     from ruamel.yaml import YAML
 
     shipped = Path(__file__).resolve().parents[2] / "scenarios"
-    default = Scenario.model_fields["robot"].default  # the issue's sweep: one robot
+    default = Scenario.model_fields["robot"].default  # the bench's sweep: one robot
     drops, pushes = (
         [
             p
