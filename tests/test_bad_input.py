@@ -281,7 +281,7 @@ def test_file_that_is_not_text_is_one_clear_line(case: str, tmp_path: Path, swee
         (
             "policies",
             "stiff,floppy",
-            "--policies: unknown policy 'floppy'; known: stiff, oneshot, zero, adaptive_qp",
+            "--policies: unknown policy 'floppy'; known: stiff, oneshot, zero, adaptive_qp, adaptive_qp_hold",
         ),
         (
             "pre_impact",
