@@ -135,3 +135,13 @@ def test_free_fall_alone_does_not_start_a_strategy() -> None:
     assert row["fall_reason"] == "freefall" and row["fall_time"] < 0.05
     assert not row["strategy_start_time"] < row["impact_time"]  # NaN or after the feet landed
     assert row["fell"] is False
+
+
+def test_a_fall_an_object_caught_is_a_fall_to_detect() -> None:
+    """A robot left leaning on a table is not fallen at rest, but a body other than the feet
+    touched: a detector that fired before that touch caught a fall, not a false alarm."""
+    runs = _runs()
+    runs.loc[2, "body_contact_time"] = 2.5  # the 'false alarm' run (fired at 2.0 s) leans on a table
+    row = detection_table(runs).iloc[0]
+    assert (row.survived, row.false_alarms, row.fell, row.misses) == (1, 0, 3, 1)
+    assert row.lead_median_s == pytest.approx(0.55)  # 0.6 s and 0.5 s

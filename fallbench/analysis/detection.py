@@ -7,7 +7,9 @@ Per run (metric columns, s; NaN = did not fire before a body other than the feet
 scenario's `detection` section: the capture point's margin outside the support polygon (m), the
 torso tilt (deg), the accelerometer norm of free fall (m/s^2, held `freefall_hold` s).
 
-Over runs (`detection_table`): a run *fell* or *survived* at rest (`fell`); a detector
+Over runs (`detection_table`): a run *fell* if it ended fallen at rest (`fell`) or if a body other
+than the feet touched the world on the way (a fall an object caught, the robot left leaning on
+it), else it *survived*; a detector
 - raises a false alarm when it fires at any time of a run that survived;
 - misses a fall when it has not fired by the first touch of a body other than the feet
   (`body_contact_time`: knees, hands, torso, ...), the impact a protective strategy must prepare;
@@ -77,8 +79,9 @@ def detection_table(runs: pd.DataFrame, defaults: dict[str, float] | None = None
     also the detectors together as a controller declares the fall: the earliest of them."""
     rows = []
     for robot, group in runs.groupby("robot", sort=True):
-        fell = group["fell"].astype(bool).to_numpy()
         contact = group["body_contact_time"].to_numpy(dtype=float)
+        # a fall caught by an object (a robot left leaning on a table) is a fall to detect too
+        fell = group["fell"].astype(bool).to_numpy() | np.isfinite(contact)
         onset = group["disturbance_onset"].to_numpy(dtype=float)
         for detector, thresholds in GRID.items():
             for threshold in thresholds:
