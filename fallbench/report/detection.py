@@ -88,7 +88,8 @@ def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
     table = detection_table(judged, DEFAULTS)
     body = [
         "<h1>Fall detection</h1>",
-        f"<p>{len(judged)} runs under none + stiff, labelled at rest (fell or survived). A false alarm: "
+        f"<p>{len(judged)} runs under none + stiff, each a fall (fallen at rest, or a body other than the "
+        "feet touched on the way: an object caught it) or survived. A false alarm: "
         "the detector fired in a run that survived. A miss: it had not fired when a body other than "
         "the feet first touched. Lead: from firing to that touch. Delay: from the disturbance's "
         "onset (the push's start, 0 for a drop) to firing. Defaults: "
