@@ -512,7 +512,8 @@ def environment_figures(scenario: Path, robot: str | None, episodes: int) -> dic
         while not done:
             action = env.action_space.sample()
             started = time.perf_counter()
-            done = env.step(action)[2]
+            _, _, terminated, truncated, _ = env.step(action)
+            done = terminated or truncated  # an episode that reaches its cap is truncated
             wall += time.perf_counter() - started
             steps += 1
         physics += env.episode.physics_s - before
