@@ -1,5 +1,5 @@
 """The fall-detection page: every detector judged as a detector on the store's none + stiff runs
-(labelled at rest: fell or survived), its trade-off between false alarms, misses and lead time
+(each a fall or survived, analysis/detection.py's labels), its trade-off between false alarms, misses and lead time
 over the threshold grid, and the scenario default's point on it (analysis/detection.py)."""
 
 from __future__ import annotations

@@ -247,8 +247,8 @@ class Episode:
         t = self.step * self.scenario.physics_dt
         started = time.perf_counter()
         watching_fall = self.impact.time is None and not self.fall.all_fired
-        if watching_fall or self.signals.watching:
-            inputs = self.detector_inputs()
+        inputs = self.detector_inputs() if watching_fall or self.signals.watching else None
+        if inputs is not None:
             body = bool((inputs.found & self.not_feet).any())
             self.signals.update(t, inputs.distance, inputs.torso, inputs.imu_acc, body)
             if watching_fall:
@@ -256,7 +256,10 @@ class Episode:
             self.start_strategy(t)
             self.watch_fall(t)
         switched_now = False
-        found = self.found() if self.fall.time is not None else self.seen
+        if self.fall.time is None:
+            found = self.seen
+        else:  # the contact sensors this step, read once
+            found = inputs.found if inputs is not None else self.found()
         if self.fall.time is not None:
             self.detect_impacts(found)
             switched_now = self.take_over(t)
@@ -275,8 +278,7 @@ class Episode:
         """The second half of a control step: the strategy, the gain policy, the servo, the push,
         and the physics substeps to the next control step."""
         t = sensed.t
-        if self.started is not None:
-            self.strategy_step(t)
+        self.strategy_step(t)
         command = self.command(t, sensed.found, sensed.switched_now)
         self.controller_ms.append(
             (time.perf_counter() - sensed.started) * 1e3 if self.fall.time is not None else 0.0
@@ -419,7 +421,7 @@ class Episode:
     def strategy_step(self, t: float) -> None:
         """The strategy's own command on its control grid, until every motor has switched or it
         handed back."""
-        if self.watch.time is None and not self.takeover.switched.all() and self.step % self.per_control == 0:
+        if self.strategy_steps_now():
             self.pre_command = self.strategy.step(t, self.data) or self.pre_command
 
     def command(self, t: float, found: np.ndarray, switched_now: bool) -> ServoCommand:
