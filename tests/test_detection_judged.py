@@ -61,6 +61,17 @@ def test_scores_by_hand() -> None:
     assert set(table.detector) == {"tilt"}  # only the columns the runs hold
 
 
+def test_detectors_together_fire_with_the_earliest_of_them() -> None:
+    runs = _runs()
+    runs[column("capture_point", 0.1)] = [0.2, 0.9, math.nan, math.nan]  # earlier, and catches the miss
+    together = {"capture_point": 0.1, "tilt": 15.0}
+    table = detection_table(runs, {"start": together, "absent": {"freefall": 3.0}})
+    row = table[table.detector == "start"].iloc[0]
+    assert (row.false_alarms, row.misses) == (1, 0)  # the tilt's false alarm, no miss
+    assert row.lead_median_s == pytest.approx(0.45)  # leads 0.8 and 0.1 s
+    assert "absent" not in set(table.detector)  # a set whose columns the runs do not hold
+
+
 def test_a_detector_firing_after_the_body_touched_misses() -> None:
     runs = _runs()
     runs.loc[0, column("tilt", 15.0)] = 1.0  # at the touch itself: too late
@@ -106,24 +117,38 @@ def test_a_fall_is_over_after_a_whole_hold_inside_the_support_and_upright() -> N
     assert verdicts == [False, False, True, False] and watch.time == 0.12  # once, after 0.05 s
 
 
-def _reshaped(force: float, **detection: object) -> dict[str, object]:
-    scenario = Scenario(name="p", push=Push(force=force, direction=0, duration=0.1), detection=detection)
+def _reshaped(force: float, start_margin: float = 0.1, **detection: object) -> dict[str, object]:
+    scenario = Scenario(
+        name="p",
+        push=Push(force=force, direction=0, duration=0.1),
+        detection=detection,
+        policy_params={"reshape": {"start_margin": start_margin}},
+    )
     return compute_metrics(simulate_named(scenario, "stiff", "reshape"))
 
 
 def test_a_false_alarm_is_handed_back_and_the_robot_stays_up() -> None:
     """A push TALOS survives (235 N) with an eager capture-point margin (-3 cm) starts `reshape`;
     its fall does not go on, so it hands back and TALOS stays up; kept reshaping, it falls."""
-    row = _reshaped(235, capture_point_margin=-0.03)
+    eager = {"capture_point_margin": -0.03}
+    row = _reshaped(235, start_margin=-0.03, **eager)
     assert row["strategy_start_time"] == row["fall_time"] and 0.1 < row["fall_time"] < 0.3
     assert row["hand_back_time"] == pytest.approx(row["fall_time"] + 0.1) and row["fell"] is False
-    kept = _reshaped(235, capture_point_margin=-0.03, hand_back=False)
+    kept = _reshaped(235, start_margin=-0.03, **eager, hand_back=False)
     assert math.isnan(kept["hand_back_time"]) and kept["fell"] is True
+
+
+def test_a_false_alarm_within_the_start_margin_starts_no_reshaping() -> None:
+    """The same eager declaration (-3 cm) with reshape's default start margin (0.1 m): the capture
+    point never gets that far outside the support, so `reshape` never starts and TALOS stays up."""
+    row = _reshaped(235, capture_point_margin=-0.03)
+    assert 0.1 < row["fall_time"] < 0.3 and row["fall_reason"] == "capture_point"
+    assert math.isnan(row["strategy_start_time"]) and row["fell"] is False
 
 
 def test_a_fall_that_goes_on_is_never_handed_back() -> None:
     row = _reshaped(370)
-    assert row["fell"] is True and row["strategy_start_time"] == row["fall_time"]
+    assert row["fell"] is True and row["fall_time"] < row["strategy_start_time"] < row["body_contact_time"]
     assert math.isnan(row["hand_back_time"])
 
 

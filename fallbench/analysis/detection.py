@@ -29,8 +29,9 @@ GRID: dict[str, tuple[float, ...]] = {
     "tilt": (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0),  # deg
     "freefall": (1.0, 2.0, 3.0, 4.0, 6.0, 8.0),  # m/s^2
 }
-UNITS = {"capture_point": "m", "tilt": "deg", "freefall": "m/s^2", "earliest": ""}
 EARLIEST = "earliest"  # the detectors together at their defaults: the first to fire declares the fall
+STRATEGY_START = "strategy start"  # the detectors (at a strategy's start margin) it starts on
+UNITS = {"capture_point": "m", "tilt": "deg", "freefall": "m/s^2"}  # a set of detectors has none
 SIGNAL_COLUMN = {"capture_point": 1, "tilt": 2}  # columns of the signal log compared with > threshold
 
 
@@ -72,11 +73,12 @@ def detection_metrics(
     return row
 
 
-def detection_table(runs: pd.DataFrame, defaults: dict[str, float] | None = None) -> pd.DataFrame:
+def detection_table(runs: pd.DataFrame, combined: dict[str, dict[str, float]] | None = None) -> pd.DataFrame:
     """Per robot, detector and threshold of `GRID`: runs survived and fell, false alarms, misses,
     their rates, and the median lead time and delay (s) over the falls it caught. `runs` are
-    metric rows (one per fall, `fell` judged at rest). With `defaults` (detector -> threshold),
-    also the detectors together as a controller declares the fall: the earliest of them."""
+    metric rows (one per fall, `fell` judged at rest). With `combined` (name -> detector ->
+    threshold), also each set of detectors together, firing when the earliest of them fires (as
+    the fall is declared, `EARLIEST`, or a strategy starts, `STRATEGY_START`)."""
     rows = []
     for robot, group in runs.groupby("robot", sort=True):
         contact = group["body_contact_time"].to_numpy(dtype=float)
@@ -89,10 +91,11 @@ def detection_table(runs: pd.DataFrame, defaults: dict[str, float] | None = None
                     continue
                 fired = group[column(detector, threshold)].to_numpy(dtype=float)
                 rows.append(_scores(robot, detector, threshold, fired, fell, contact, onset))
-        names = [column(d, t) for d, t in (defaults or {}).items()]
-        if names and all(name in group for name in names):
-            earliest = group[names].min(axis=1, skipna=True).to_numpy(dtype=float)
-            rows.append(_scores(robot, EARLIEST, math.nan, earliest, fell, contact, onset))
+        for name, thresholds in (combined or {}).items():
+            columns = [column(d, t) for d, t in thresholds.items()]
+            if all(c in group for c in columns):
+                earliest = group[columns].min(axis=1, skipna=True).to_numpy(dtype=float)
+                rows.append(_scores(robot, name, math.nan, earliest, fell, contact, onset))
     return pd.DataFrame(rows)
 
 
@@ -113,7 +116,7 @@ def _scores(
         "robot": robot,
         "detector": detector,
         "threshold": threshold,
-        "unit": UNITS[detector],
+        "unit": UNITS.get(detector, ""),
         "survived": survived,
         "false_alarms": false_alarms,
         "false_alarm_rate": false_alarms / survived if survived else math.nan,

@@ -42,6 +42,10 @@ class Strategy(ABC):
     # policies); its runs carry no gain policy (`-`). Its control rate is its own: `step` is called
     # every control step and returns None between its own decisions.
     hands_over: bool = True
+    # m the capture point must be outside the feet's support polygon for the strategy to start
+    # (`detection.act_on`; docs/detection.md#false-alarms); None: the scenario's
+    # `detection.capture_point_margin`, which declares the fall.
+    start_margin: float | None = None
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         self.params = resolved_params(

@@ -10,7 +10,8 @@ import matplotlib.pyplot as plt
 import pandas as pd
 
 import fallbench.report.pages as pages
-from fallbench.analysis.detection import EARLIEST, GRID, detection_table
+from fallbench.analysis.detection import EARLIEST, GRID, STRATEGY_START, detection_table
+from fallbench.preimpact.reshape.controller import RESHAPE_PARAMS
 from fallbench.report.figures import _save
 from fallbench.scenario import Detection
 
@@ -21,6 +22,9 @@ DEFAULTS = {
     "tilt": Detection().tilt,
     "freefall": Detection().freefall,
 }
+STRATEGY_START_DEFAULTS = {"capture_point": RESHAPE_PARAMS["start_margin"], "tilt": Detection().tilt}
+COMBINED = {EARLIEST: DEFAULTS, STRATEGY_START: STRATEGY_START_DEFAULTS}
+COMBINED_MARKERS = {EARLIEST: ("*", "earliest of the three"), STRATEGY_START: ("P", "reshape starts")}
 MARKERS = {"capture_point": "o", "tilt": "s", "freefall": "^"}
 COLUMNS = {
     "detector": "detector",
@@ -60,16 +64,10 @@ def trade_off_figure(table: pd.DataFrame, out: Path) -> list[Path]:
             for ax, y in zip(row, ("miss_rate", "lead_median_s")):
                 ax.plot(mine.false_alarm_rate, mine[y], marker=MARKERS[detector], label=detector)
                 ax.plot(default.false_alarm_rate, default[y], "o", ms=14, mfc="none", mec="black")
-        earliest = table[(table.robot == robot) & (table.detector == EARLIEST)]
-        for ax, y in zip(row, ("miss_rate", "lead_median_s")):
-            ax.plot(
-                earliest.false_alarm_rate,
-                earliest[y],
-                "*",
-                ms=14,
-                color="black",
-                label="earliest of the three",
-            )
+        for name, (marker, label) in COMBINED_MARKERS.items():
+            mine = table[(table.robot == robot) & (table.detector == name)]
+            for ax, y in zip(row, ("miss_rate", "lead_median_s")):
+                ax.plot(mine.false_alarm_rate, mine[y], marker, ms=14, color="black", label=label)
         row[0].set(
             xlabel="false-alarm rate (runs survived)", ylabel="miss rate (falls)", title=f"{robot}: misses"
         )
@@ -85,7 +83,7 @@ def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
     judged = detection_runs(runs)
     if judged.empty:
         return None
-    table = detection_table(judged, DEFAULTS)
+    table = detection_table(judged, COMBINED)
     body = [
         "<h1>Fall detection</h1>",
         f"<p>{len(judged)} runs under none + stiff, each a fall (fallen at rest, or a body other than the "
@@ -95,7 +93,9 @@ def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
         "onset (the push's start, 0 for a drop) to firing. Defaults: "
         + ", ".join(f"{d} {v:g}" for d, v in DEFAULTS.items())
         + "; 'earliest': the three together at their defaults, the first to fire declaring the fall, "
-        "as a scenario's default `detection` does (docs/detection.md).</p>",
+        "as a scenario's default `detection` does; 'strategy start': the capture point at "
+        f"reshape's default start margin ({RESHAPE_PARAMS['start_margin']:g} m) or the tilt, the "
+        "first to fire starting reshape (docs/detection.md).</p>",
     ]
     body += [pages.image(p, out) for p in trade_off_figure(table, out) if p.suffix == ".png"]
     for robot, mine in table.groupby("robot"):

@@ -33,6 +33,7 @@ class PreImpactController(Protocol):
 
     per_chain_switching: bool  # each motor switches when its own chain touches down (002 Sec. V)
     hands_over: bool  # False: a whole-fall controller, whose motors never switch to the gain policy
+    start_margin: float | None  # m of the capture point outside the support to start on (`Strategy`)
 
     def start(self, t: float, data: mujoco.MjData) -> None: ...
     def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None: ...

@@ -352,7 +352,9 @@ class Episode:
             return False
         _, distance, tilt, _ = self.signals.rows[-1]
         detection = self.scenario.detection
-        return ("capture_point" in detection.act_on and distance > detection.capture_point_margin) or (
+        margin = self.strategy.start_margin
+        margin = detection.capture_point_margin if margin is None else margin
+        return ("capture_point" in detection.act_on and distance > margin) or (
             "tilt" in detection.act_on and tilt > detection.tilt
         )
 
