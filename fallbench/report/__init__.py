@@ -11,17 +11,18 @@ from pathlib import Path
 import pandas as pd
 
 from fallbench.report import pages, ranking
-from fallbench.report.claims import claims_table, verdict_matrix
 from fallbench.report.detection import detection_section
-from fallbench.report.direction import direction_report, top_down_figure
 from fallbench.report.drawing import Drawing, Drawn, Figure
-from fallbench.report.figures import draw_paper_figures, paper_points
 from fallbench.report.filmstrips import Pick, family_picks, figure_name, filmstrip_figures
 from fallbench.report.forest import Pool, forest_figure, forest_markdown, forest_table, paired_changes, pools
 from fallbench.report.grouping import newest_runs, settled_runs, unsettled_note, with_robot
 from fallbench.report.names import PAPERS, arm_name
 from fallbench.report.paired import REFERENCE
-from fallbench.report.preimpact import (
+from fallbench.report.papers.claims import claims_table, robust_claims, verdict_matrix
+from fallbench.report.papers.direction import direction_report, top_down_figure
+from fallbench.report.papers.drop_figures import draw_paper_figures, paper_points
+from fallbench.report.papers.figures_004 import mirrors
+from fallbench.report.papers.reshape import (
     draw_reshaped_falls,
     first_impact_figure,
     preimpact_tables,
@@ -29,7 +30,7 @@ from fallbench.report.preimpact import (
 )
 from fallbench.report.sensitivity import SWEEPS, sensitivity_figure, sensitivity_runs, sensitivity_table
 from fallbench.report.sweeps import KEY_METRICS, distribution_figure, median_table, parameter_figures
-from fallbench.report.validity import robust_claims, split_steps, step_changes
+from fallbench.report.validity import split_steps, step_changes
 from fallbench.results import store
 
 
@@ -134,9 +135,9 @@ def _paper_jobs(
 
 
 def _top_down_jobs(family: Family, results: Path, out: Path) -> list[Figure]:
-    """004's top-down plots of the family's chosen `direction` falls (the `dir_fig*` mirrors get
-    theirs from `direction_report`)."""
-    if family.name.startswith(DIRECTION_MIRRORS):
+    """004's top-down plots of the family's chosen `direction` falls (the mirrors of 004's figures
+    get theirs from `direction_report`)."""
+    if family.name in mirrors(family.runs, results):
         return []
     jobs = []
     for pick in family.picks:
@@ -153,9 +154,6 @@ def _top_down_jobs(family: Family, results: Path, out: Path) -> list[Figure]:
                 )
             )
     return list({job.name: job for job in jobs}.values())
-
-
-DIRECTION_MIRRORS = "dir_fig"
 
 
 def _one_run_each(family: Family, point: str, policy: str, chosen: str = "") -> pd.DataFrame:

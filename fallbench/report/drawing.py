@@ -30,7 +30,7 @@ from typing import Any
 
 import pandas as pd
 
-from fallbench.report.figures import FigureSkipped, set_vector
+from fallbench.report.figure_files import FigureSkipped, set_vector
 from fallbench.results import store
 
 CACHE_FILE = ".figure-cache.json"
@@ -219,7 +219,7 @@ class Drawing:
         names = [f.name for f in order] or list(self.keys)
         if sorted(names) != sorted(self.keys):
             raise ValueError("finish: `order` must hold the figures added")
-        self._save(names)
+        self.save_figure(names)
         self.result.paths = {name: self.result.paths[name] for name in names}
         return self.result
 
@@ -232,7 +232,7 @@ class Drawing:
             self.result.payloads[name] = payload
             pd.to_pickle(payload, _payload_path(self.out, self.keys[name]))
 
-    def _save(self, names: list[str]) -> None:
+    def save_figure(self, names: list[str]) -> None:
         """Write the cache of these figures and delete the payloads no figure uses any more."""
         out, result, cached = self.out, self.result, self.cached["figures"]
         entries = {

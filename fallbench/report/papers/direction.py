@@ -17,8 +17,8 @@ from ruamel.yaml import YAML
 
 from fallbench.preimpact.direction.config import DirectionConfig
 from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
-from fallbench.report.direction_judge import (
-    AUTHORITY_SCENARIO,
+from fallbench.report.figure_files import save_figure
+from fallbench.report.papers.direction_judge import (
     authority_runs,
     authority_table,
     judge_hits,
@@ -27,7 +27,8 @@ from fallbench.report.direction_judge import (
     within_authority_claim,
     without_empty_settings,
 )
-from fallbench.report.figures import _save
+from fallbench.report.papers.figures_004 import expected_choices, mirrors
+from fallbench.report.selection import free_space
 from fallbench.results import store
 from fallbench.scenario import Scenario
 
@@ -254,12 +255,13 @@ def _prediction_claims(pairs: pd.DataFrame) -> list[dict[str, str]]:
     ]
 
 
-def claims(runs: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
-    """004's qualitative claims against our runs (thresholds are ours: 004 reports single cases)."""
+def claims(runs: pd.DataFrame, pairs: pd.DataFrame, expected: dict[str, str] | None = None) -> pd.DataFrame:
+    """004's qualitative claims against our runs (thresholds are ours: 004 reports single cases);
+    `expected`: the figure mirrors' families -> 004's choice (figures_004.expected_choices)."""
     if pairs.empty:
         return pd.DataFrame()
     rows = _avoidance_claims(pairs) + _strategy_claims(pairs) + _prediction_claims(pairs)
-    return pd.DataFrame(rows + _ablation(runs) + _mirrors(pairs))
+    return pd.DataFrame(rows + _ablation(runs) + _mirrors(pairs, expected or {}))
 
 
 def _ablation(runs: pd.DataFrame) -> list[dict[str, str]]:
@@ -283,15 +285,8 @@ def _ablation(runs: pd.DataFrame) -> list[dict[str, str]]:
     ]
 
 
-def _mirrors(pairs: pd.DataFrame) -> list[dict[str, str]]:
-    """Each figure mirror picks 004's strategy."""
-    expected = {
-        "dir_fig1": "take_step",
-        "dir_fig6": "no_action",
-        "dir_fig7": "lift_leg",
-        "dir_fig8": "take_step+pis",
-        "dir_fig9": "no_action+wbis",
-    }
+def _mirrors(pairs: pd.DataFrame, expected: dict[str, str]) -> list[dict[str, str]]:
+    """Each figure mirror picks 004's strategy (`expected`: family -> 004's choice, figures_004.py)."""
     cases = pairs[pairs.scenario.isin(expected)]
     if cases.empty:
         return []
@@ -432,7 +427,7 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower left")
     stem = "direction_" + "".join(c if c.isalnum() else "_" for c in point).strip("_") + f"_{policy}"
-    return _save(fig, out, stem)
+    return save_figure(fig, out, stem)
 
 
 def variant_label(pairs: pd.DataFrame) -> pd.Series:
@@ -461,7 +456,7 @@ def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:
     ax.set(ylabel="falls hitting an object (%)", ylim=(0, 105), title="Object hits: none vs direction (004)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, axis="y")
-    return _save(fig, out, "direction_hit_rates")
+    return save_figure(fig, out, "direction_hit_rates")
 
 
 def direction_report(
@@ -477,18 +472,22 @@ def direction_report(
     )
     pairs = paired(runs)
     # the authority suite's forced runs in free space are measurements, not falls to judge
-    pairs = pairs[pairs.scenario != AUTHORITY_SCENARIO] if not pairs.empty else pairs
+    free = set(runs.loc[free_space(runs), "scenario"])
+    pairs = pairs[~pairs.scenario.isin(free)] if not pairs.empty else pairs
     if pairs.empty:
         return [], authority_tables
     paths = hit_rate_figure(pairs, out)
     hits = judge_hits(pairs, results, authority)
     policy = "stiff" if (pairs.policy == "stiff").any() else pairs.policy.iloc[0]
-    cases = sorted(pairs[pairs.scenario.str.startswith("dir_fig")].point.unique())
+    found = mirrors(runs, results)
+    cases = sorted(pairs[pairs.scenario.isin(found)].point.unique())
     for point in cases:
         paths += top_down_figure(runs, results, out, point, policy)
     tables = {
         "Object hits, none vs direction (004)": hit_table(pairs),
-        "Claims of 004": pd.concat([claims(runs, pairs), pd.DataFrame(within_authority_claim(hits))]),
+        "Claims of 004": pd.concat(
+            [claims(runs, pairs, expected_choices(runs, found)), pd.DataFrame(within_authority_claim(hits))]
+        ),
     }
     tables |= authority_tables
     if not authority.empty:
