@@ -11,7 +11,7 @@ import pandas as pd
 
 from fallbench.report.figure_files import FigureSkipped, save_figure
 from fallbench.report.grouping import with_robot
-from fallbench.report.selection import pushed_at_set_direction
+from fallbench.report.selection import among_objects, pushed_at_set_direction, set_conditions
 from fallbench.report.style import STRATEGY_LINES
 from fallbench.results import store
 from fallbench.robots import get_robot
@@ -129,12 +129,15 @@ def detection_table(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def clutter_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per robot, obstacle scenario and strategy: landing error, obstacle contacts, head and torso peaks."""
+    """Per robot, obstacle scenario and strategy: landing error, obstacle contacts, head and torso
+    peaks; on the runs among objects whose conditions were set (the regression and validation
+    suites, which draw theirs, are left out)."""
     runs = with_robot(runs)
     cluttered = runs[
         (runs.status == "ok")
         & (runs.obstacle_force_peak.notna())
-        & ~runs.scenario.str.startswith(("push", "drop", "ci_"))
+        & among_objects(runs)
+        & set_conditions(runs)
     ]
     rows = []
     for (robot, scenario, strategy), group in cluttered.groupby(["robot", "scenario", "pre_impact"]):
