@@ -48,13 +48,13 @@ def test_claims_without_half_step_runs_are_unchanged() -> None:
 
 
 def test_the_report_counts_half_step_runs_apart() -> None:
-    from fallbench.report import _counted
+    from fallbench.report.index_page import counted
 
     default, halved = _runs(DEFAULT_STEP, 200.0, False), _runs(DEFAULT_STEP / 2, 210.0, True)
     assert (
-        _counted(default, halved) == "2 runs (and 2 at another physics step, in the numerical validity only)"
+        counted(default, halved) == "2 runs (and 2 at another physics step, in the numerical validity only)"
     )
-    assert _counted(default, halved.iloc[0:0]) == "2 runs"
+    assert counted(default, halved.iloc[0:0]) == "2 runs"
 
 
 def _drops(imu: dict[str, float], knee: dict[str, float], step: float) -> pd.DataFrame:
