@@ -14,6 +14,7 @@ from fallbench.report.detection import detection_section
 from fallbench.report.drawing import Drawing, Figure
 from fallbench.report.family import Family, find_families
 from fallbench.report.family_page import write_family_pages
+from fallbench.report.figure_files import files_only
 from fallbench.report.figure_jobs import (
     direction_job,
     forest_jobs,
@@ -124,6 +125,7 @@ def build_report(
     and scenario family, summary.md. Returns the files written, index.html and summary.md first.
     Figures are drawn on `options.jobs` processes; those whose runs and code did not change since
     the last report into `out` are kept (drawing.py)."""
+    files_only()  # the detection page is drawn in this process
     options = options or Options()
     runs = store.load_metrics(results)
     if runs.empty:

@@ -30,7 +30,7 @@ from typing import Any
 
 import pandas as pd
 
-from fallbench.report.figure_files import FigureSkipped, set_vector
+from fallbench.report.figure_files import FigureSkipped, files_only, set_vector
 from fallbench.results import store
 
 CACHE_FILE = ".figure-cache.json"
@@ -154,6 +154,7 @@ Outcome = tuple[list[Path], str, Any, float]  # files, note ("" or why skipped),
 
 def _draw_one(figure: Figure, vector: bool) -> Outcome:
     """In a worker: draw one figure; also returns the CPU time it took (s, this process's threads)."""
+    files_only()
     before = set_vector(vector)
     started = time.process_time()
     try:

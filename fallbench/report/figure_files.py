@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -61,3 +62,9 @@ def save_figure(fig, out: Path, stem: str, margins: dict[str, float] | None = No
         fig.savefig(path, dpi=DPI)
     plt.close(fig)
     return paths
+
+
+def files_only() -> None:
+    """Draw with Agg, matplotlib's file-only backend: called where the report, its drawing workers
+    and `fallbench compare` start drawing, so that importing the report opens no screen."""
+    matplotlib.use("Agg")

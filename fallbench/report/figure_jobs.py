@@ -27,7 +27,7 @@ from fallbench.results import store
 
 def _paper_rows(family: Family, results: Path, which: str) -> list[tuple[str, pd.DataFrame]]:
     """The points of a family that get 002's figures, as (point, its runs): with "all" every
-    eligible point (`figures.paper_points`; runs stored with their time series); with "chosen" one:
+    eligible point (`papers.drop_figures.paper_points`; runs stored with their time series); with "chosen" one:
     the point of its worst shown fall if eligible, else of its other shown falls in order, else
     its first eligible point."""
     eligible = paper_points(store.with_timeseries(results, family.runs))  # not --timeseries none
@@ -44,7 +44,7 @@ def per_family_paper_jobs(
 ) -> dict[str, list[Figure]]:
     """Family stem -> the figures of 002 per point (`_paper_rows`), 004's top-down plots (`none`
     and `direction` on the same point and policy, with a control origin) and the reshaped falls
-    (each family's typical `reshape` fall, `preimpact.reshape_points`)."""
+    (each family's typical `reshape` fall, `papers.reshape.reshape_points`)."""
     jobs: dict[str, list[Figure]] = {}
     for family in families:
         mine = [

@@ -188,7 +188,7 @@ def judge_hits(pairs: pd.DataFrame, results: Path, table: pd.DataFrame) -> pd.Da
     return hits
 
 
-VARIANT = ["predictor", "settings"]  # a sweep's `direction` variants are judged apart (report/direction.py)
+VARIANT = ["predictor", "settings"]  # a sweep's `direction` variants are judged apart (papers/direction.py)
 
 
 def variants(frame: pd.DataFrame) -> pd.DataFrame:
