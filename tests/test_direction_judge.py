@@ -16,8 +16,7 @@ from fallbench.cli import app
 from fallbench.preimpact.direction.candidates import Candidate
 from fallbench.preimpact.direction.geometry import SafeRegion, needed_deflection
 from fallbench.preimpact.direction.selection import Forced, choose
-from fallbench.report.direction_judge import (
-    AUTHORITY_SCENARIO,
+from fallbench.report.papers.direction_judge import (
     authority_runs,
     authority_table,
     judge_hits,
@@ -69,6 +68,8 @@ def _authority_rows() -> pd.DataFrame:
         "push_direction": 0.0,
         "scenario": "dir_authority",
         "status": "ok",
+        "obstacle_hit": False,
+        "obstacle_clearance_at_impact": 2.0,  # m: objects out of reach, the authority suite's free space
     }
     rows = [
         cell
@@ -222,7 +223,7 @@ def _stored(results: Path, rows: list[tuple[dict, dict, pd.DataFrame | None]]) -
 def test_direction_authority_command_on_a_small_store(tmp_path: Path) -> None:
     results = tmp_path / "r"
     rows = [{k: v for k, v in row.items() if v == v} for row in _authority_rows().to_dict("records")]
-    _stored(results, [({"name": AUTHORITY_SCENARIO}, row, None) for row in rows])  # `none` has no strategy
+    _stored(results, [({"name": "authority"}, row, None) for row in rows])  # `none` has no strategy
     out = tmp_path / "authority.csv"
     result = CliRunner().invoke(app, ["direction", "authority", "--results", str(results), "--out", str(out)])
     assert result.exit_code == 0, result.output

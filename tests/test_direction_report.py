@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from fallbench.report.direction import claims, hit_table, paired, variant_label
+from fallbench.report.papers.direction import claims, hit_table, paired, variant_label
 
 
 def _runs() -> pd.DataFrame:

@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
-from fallbench.report.claims import claims_table, verdict_matrix
+from fallbench.report.papers.claims import claims_table, verdict_matrix
 from fallbench.report.sensitivity import SWEEPS, sensitivity_figure, sensitivity_runs, sensitivity_table
 
 SUITE = """name: drop
@@ -147,7 +147,7 @@ def test_claims_per_baseline_gain_scale() -> None:
 
 
 def test_first_impact_table_counts_by_push_direction() -> None:
-    from fallbench.report.preimpact import first_impact_table, push_label
+    from fallbench.report.papers.reshape import first_impact_table, push_label
 
     rows = pd.DataFrame(
         {
@@ -224,13 +224,14 @@ def test_sensitivity_lines_table_and_figure(tmp_path: Path) -> None:
 
 
 def test_prescription_and_detection_tables_on_hand_made_rows() -> None:
-    from fallbench.report.preimpact import detection_table, prescription_table
+    from fallbench.report.papers.reshape import detection_table, prescription_table
 
     nan = float("nan")
     rows = pd.DataFrame(
         {
             "scenario": "push_x",
             "status": "ok",
+            "param:push.direction": [0.0, 0.0, 90.0, 270.0, 0.0],  # deg: pushes at set directions
             "first_impact_group": ["knees", "knees", "hands", "hands", ""],
             "pre_impact": ["none", "reshape", "none", "reshape", "none"],
             "fall_class": ["front", "front", "left", "right", ""],

@@ -15,7 +15,7 @@ from fallbench.cli import app
 from fallbench.report import drawing
 from fallbench.report.filmstrips import damage, family_picks, picks
 from fallbench.report.forest import forest_table, paired_changes, pools
-from fallbench.report.preimpact import TIMELINE_GROUPS, draw_reshaped_falls
+from fallbench.report.papers.reshape import TIMELINE_GROUPS, draw_reshaped_falls
 from fallbench.results import store
 from fallbench.robots import get_robot
 
@@ -341,7 +341,7 @@ def test_report_of_scenarios_with_names_of_their_own(tmp_path: Path, sweep) -> N
 def test_envelope_keeps_every_peak_of_a_long_series() -> None:
     """002's series are cut to 2 samples per pixel column: each bucket's smallest and largest value,
     in time order, so a one-sample landing spike and the lowest dip survive exactly."""
-    from fallbench.report.figures import envelope
+    from fallbench.report.figure_files import envelope
 
     t = np.arange(6000) * 0.0005
     y = np.sin(t * 7.0)

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 import scipy.stats
 
-from fallbench.report.ranking import ranked, ranking_table, shown_table, verdict
+from fallbench.report.ranking import ranked, shown_table, verdict
 from fallbench.report.stats import bootstrap, natural_sorted
 
 
@@ -106,7 +106,7 @@ def _family(seed: int = 0) -> pd.DataFrame:
 
 def test_ranking_puts_the_gentler_arm_first_with_intervals_and_a_clear_verdict() -> None:
     runs = _family()
-    table = ranking_table(runs)
+    table = ranked(runs).table
     assert (table.pre_impact[0], table.policy[0]) == ("reshape", "zero")
     assert list(table.runs) == [20, 20, 20]
     head = table["head peak force (N)"][0]
@@ -213,7 +213,7 @@ def test_an_arm_clearly_worse_than_none_stiff_on_falls_is_never_the_winner() -> 
     for (strategy, policy), count in falls.items():
         arm = (runs.pre_impact == strategy) & (runs.policy == policy)
         runs.loc[arm, "fell"] = [k < count for k in range(16)]
-    table = ranking_table(runs)
+    table = ranked(runs).table
     assert (table.pre_impact[0], table.policy[0]) == ("reshape", "stiff")
     assert table["clearly worse than none + stiff on"][0] == "fell"
     line = verdict(runs)
@@ -237,7 +237,7 @@ def test_arms_with_the_same_falls_pair_by_pair_are_one_row() -> None:
         points=5,
     )
     runs["direction_strategy"] = np.where(runs.pre_impact == "direction", "no_action", None)
-    table = ranking_table(runs)
+    table = ranked(runs).table
     assert list(zip(table.pre_impact, table.policy)) == [("none", "zero"), ("none", "stiff")]
     assert list(shown_table(ranked(runs)).arm) == ["none + zero = direction + zero", "none + stiff"]
     assert table["same falls as"][0] == "direction + zero (5 runs; direction chose no_action in 5/5)"

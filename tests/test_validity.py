@@ -6,7 +6,8 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from fallbench.report.validity import DEFAULT_STEP, robust_claims, split_steps, step_changes
+from fallbench.report.papers.claims import robust_claims
+from fallbench.report.validity import DEFAULT_STEP, split_steps, step_changes
 
 
 def _runs(step: float, imu: float, fell: bool) -> pd.DataFrame:
@@ -47,13 +48,13 @@ def test_claims_without_half_step_runs_are_unchanged() -> None:
 
 
 def test_the_report_counts_half_step_runs_apart() -> None:
-    from fallbench.report import _counted
+    from fallbench.report.index_page import counted
 
     default, halved = _runs(DEFAULT_STEP, 200.0, False), _runs(DEFAULT_STEP / 2, 210.0, True)
     assert (
-        _counted(default, halved) == "2 runs (and 2 at another physics step, in the numerical validity only)"
+        counted(default, halved) == "2 runs (and 2 at another physics step, in the numerical validity only)"
     )
-    assert _counted(default, halved.iloc[0:0]) == "2 runs"
+    assert counted(default, halved.iloc[0:0]) == "2 runs"
 
 
 def _drops(imu: dict[str, float], knee: dict[str, float], step: float) -> pd.DataFrame:
@@ -84,7 +85,7 @@ def test_claims_at_half_the_step_say_whether_each_verdict_is_robust() -> None:
     """stiff's IMU peak is the highest at the default step and the lowest at half of it: that claim
     is not robust; the knee claims hold at both steps: robust. A claim the half-step runs cannot
     decide (no zero runs) has no verdict there."""
-    from fallbench.report.claims import claims_table
+    from fallbench.report.papers.claims import claims_table
 
     knee = {"stiff": 0.1, "zero": -0.01}
     default = _drops({"stiff": 300.0, "zero": 100.0}, knee, DEFAULT_STEP)

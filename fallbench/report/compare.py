@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from fallbench.analysis.metrics import HEADLINE_METRICS
+from fallbench.report.figure_files import files_only
 from fallbench.report.grouping import with_robot
 from fallbench.report.names import arm_name
 from fallbench.report.stats import bootstrap, natural_key
@@ -169,6 +170,7 @@ def figure(comparison: Comparison, out: Path) -> Path:
     """compare.png: per measure, each group's change B - A with its 95 % interval, coloured by verdict."""
     import matplotlib.pyplot as plt
 
+    files_only()
     table = comparison.table
     measures = list(dict.fromkeys(table.measure))
     groups = list(dict.fromkeys(zip(table.robot, table.family, table.pre_impact, table.policy)))

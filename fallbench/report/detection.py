@@ -12,7 +12,7 @@ import pandas as pd
 import fallbench.report.pages as pages
 from fallbench.analysis.detection import EARLIEST, GRID, STRATEGY_START, detection_table
 from fallbench.preimpact.reshape.controller import RESHAPE_PARAMS
-from fallbench.report.figures import _save
+from fallbench.report.figure_files import save_figure
 from fallbench.scenario import Detection
 
 PAGE = "detection.html"
@@ -75,7 +75,7 @@ def trade_off_figure(table: pd.DataFrame, out: Path) -> list[Path]:
             xlabel="false-alarm rate (runs survived)", ylabel="median lead time (s)", title=f"{robot}: lead"
         )
         row[0].legend(title="circled: default threshold", fontsize=9)
-    return _save(fig, out, "detection_trade_off")
+    return save_figure(fig, out, "detection_trade_off")
 
 
 def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:

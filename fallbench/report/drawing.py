@@ -30,7 +30,7 @@ from typing import Any
 
 import pandas as pd
 
-from fallbench.report.figures import FigureSkipped, set_vector
+from fallbench.report.figure_files import FigureSkipped, files_only, set_vector
 from fallbench.results import store
 
 CACHE_FILE = ".figure-cache.json"
@@ -154,6 +154,7 @@ Outcome = tuple[list[Path], str, Any, float]  # files, note ("" or why skipped),
 
 def _draw_one(figure: Figure, vector: bool) -> Outcome:
     """In a worker: draw one figure; also returns the CPU time it took (s, this process's threads)."""
+    files_only()
     before = set_vector(vector)
     started = time.process_time()
     try:
@@ -219,7 +220,7 @@ class Drawing:
         names = [f.name for f in order] or list(self.keys)
         if sorted(names) != sorted(self.keys):
             raise ValueError("finish: `order` must hold the figures added")
-        self._save(names)
+        self.save_figure(names)
         self.result.paths = {name: self.result.paths[name] for name in names}
         return self.result
 
@@ -232,7 +233,7 @@ class Drawing:
             self.result.payloads[name] = payload
             pd.to_pickle(payload, _payload_path(self.out, self.keys[name]))
 
-    def _save(self, names: list[str]) -> None:
+    def save_figure(self, names: list[str]) -> None:
         """Write the cache of these figures and delete the payloads no figure uses any more."""
         out, result, cached = self.out, self.result, self.cached["figures"]
         entries = {

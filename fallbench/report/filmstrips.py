@@ -25,7 +25,7 @@ from pathlib import Path
 import pandas as pd
 
 from fallbench.report.drawing import Figure
-from fallbench.report.figures import FigureSkipped
+from fallbench.report.figure_files import FigureSkipped
 from fallbench.report.ranking import arm_order, families, measures_for, robots
 from fallbench.report.render import RenderUnavailable, ReplayMissing, filmstrip
 

@@ -23,7 +23,7 @@ import pandas as pd
 from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 import fallbench.report.paired as paired
-from fallbench.report.figures import _save
+from fallbench.report.figure_files import save_figure
 from fallbench.report.paired import REFERENCE
 from fallbench.report.ranking import DAMAGE_MEASURES, Ranked, arm_order, measures_for, ranked, row_name
 from fallbench.report.stats import Estimate, bootstrap, natural_sorted
@@ -154,7 +154,7 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     title_lines = title.count("\n") + 1
     renderer = fig.canvas.get_renderer()
     label_inches = max(t.get_window_extent(renderer).width for t in axes[0, 0].get_yticklabels()) / fig.dpi
-    return _save(fig, out, stem, _margins(fig, label_inches, title_lines))
+    return save_figure(fig, out, stem, _margins(fig, label_inches, title_lines))
 
 
 def _short_number(value: float, _position: int = 0) -> str:

@@ -148,14 +148,6 @@ def arm_order(runs: pd.DataFrame, done: Ranked | None = None) -> list[Arm]:
     return list(zip(table.pre_impact, table.policy)) if len(table) else []
 
 
-def ranking_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """One row per (strategy, policy) (arms with the same falls pair by pair: one row), best first:
-    mean rank over the damage measures (1 = least damage on every measure; ties share a rank),
-    runs, the harm measures on which it is clearly worse than `none` + `stiff`, and each measure's
-    median [95 % CI] (`fell`: the fraction of runs)."""
-    return ranked(runs).table
-
-
 def shown_table(done: Ranked) -> pd.DataFrame:
     """The ranking as pages show it: each row named as everywhere else ("none + stiff = direction
     + stiff", "onnx (learned)") in place of its strategy and policy columns."""

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 import pandas as pd
 
 from fallbench.analysis.metrics import LANDING_WINDOW
-from fallbench.report.figures import _save
+from fallbench.report.figure_files import save_figure
 from fallbench.report.grouping import with_robot
 from fallbench.report.style import colour, ordered
 
@@ -156,4 +156,4 @@ def sensitivity_figure(swept: pd.DataFrame, out: Path, sweep: Sweep = SWEEPS[0])
         f"Sensitivity to {sweep.title} ({names}, {len(swept)} runs; landing = first "
         f"{LANDING_WINDOW * 1000:.0f} ms after impact; median over repeated points)"
     )
-    return _save(fig, out, f"sensitivity_{sweep.name}")
+    return save_figure(fig, out, f"sensitivity_{sweep.name}")

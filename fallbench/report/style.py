@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")  # files only, no screen
-
 # Okabe-Ito colours: told apart with any colour vision (stiff vermillion, onnx bluish green)
 POLICY_COLOURS = {"stiff": "#D55E00", "oneshot": "#E69F00", "zero": "#CC79A7", "adaptive_qp": "#0072B2"}
 OTHER_COLOUR = "#009E73"

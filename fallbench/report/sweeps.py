@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from fallbench.report.figures import _save
+from fallbench.report.figure_files import save_figure
 from fallbench.report.grouping import with_robot
 from fallbench.report.names import arm_name
 from fallbench.report.stats import bootstrap
@@ -41,7 +41,7 @@ def distribution_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
         ax.set(title=label)
         ax.grid(alpha=0.3)
     fig.suptitle(f"All runs ({len(runs)}), per policy")
-    return _save(fig, out, "sweep_distributions")
+    return save_figure(fig, out, "sweep_distributions")
 
 
 SWEEP_METRICS = ("imu_peak_z", "knee_limit_margin", "torque_demand_ratio_max")
@@ -74,7 +74,7 @@ def parameter_figures(runs: pd.DataFrame, out: Path) -> list[Path]:
                 continue  # string parameters (a forced mode) have no axis
             fig, margins = _sweep_figure(group, param, robot, scenario)
             stem = f"sweep_{scenario}_{param.removeprefix('param:').replace('.', '_')}"
-            paths += _save(fig, out, stem if robot == DEFAULT_ROBOT else f"{stem}_{robot}", margins)
+            paths += save_figure(fig, out, stem if robot == DEFAULT_ROBOT else f"{stem}_{robot}", margins)
     return paths
 
 

@@ -2,8 +2,8 @@
 
 The main job runs the 002 drops at the default step and at half of it (scenarios/drop.yaml sweeps
 `physics_dt`). Runs at a step other than the default feed only this section, never the rankings:
-each headline metric's change with the halving, and each claim's verdict at both steps; a claim is
-robust only if its verdict is the same at both.
+each headline metric's change with the halving. Each claim's verdict at both steps is
+papers/claims.py's `robust_claims`: a claim is robust only if its verdict is the same at both.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ import numpy as np
 import pandas as pd
 
 from fallbench.analysis.metrics import HEADLINE_METRICS
-from fallbench.report.claims import claims_table
 from fallbench.results.converge import relative_change
 from fallbench.scenario import DEFAULT_PHYSICS_DT
 
@@ -64,17 +63,3 @@ def step_changes(default: pd.DataFrame, halved: pd.DataFrame) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
-
-
-def robust_claims(claims: pd.DataFrame, halved: pd.DataFrame) -> pd.DataFrame:
-    """The claims table with each verdict at half the step and whether it is the same (robust)."""
-    if halved.empty or claims.empty:
-        return claims
-    at_half = claims_table(halved)
-    if at_half.empty:
-        return claims
-    half = at_half.set_index(["robot", "scope", "claim"])["verdict"]
-    keys = list(zip(claims.robot, claims.scope, claims.claim))
-    verdicts = [half.get(key, "-") for key in keys]
-    robust = ["yes" if v == old else ("-" if v == "-" else "no") for v, old in zip(verdicts, claims.verdict)]
-    return claims.assign(**{"verdict at half the step": verdicts, "robust": robust})

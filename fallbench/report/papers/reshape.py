@@ -9,8 +9,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from fallbench.report.figures import FigureSkipped, _save
+from fallbench.report.figure_files import FigureSkipped, save_figure
 from fallbench.report.grouping import with_robot
+from fallbench.report.selection import among_objects, pushed_at_set_direction, set_conditions
 from fallbench.report.style import STRATEGY_LINES
 from fallbench.results import store
 from fallbench.robots import get_robot
@@ -38,9 +39,7 @@ def push_label(direction: float) -> str:
 def first_impact_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per robot, push class and strategy: where the first impact lands, and head and torso peak forces."""
     runs = with_robot(runs)
-    pushes = runs[
-        (runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")
-    ]
+    pushes = runs[(runs.status == "ok") & pushed_at_set_direction(runs) & (runs.first_impact_group != "")]
     if DIRECTION not in pushes or pushes.empty:
         return pd.DataFrame()
     pushes = pushes.assign(fall=pushes[DIRECTION].map(push_label))
@@ -74,7 +73,7 @@ def _fallen_pushes(runs: pd.DataFrame) -> pd.DataFrame:
         return pd.DataFrame()
     pushes = runs[
         (runs.status == "ok")
-        & runs.scenario.str.startswith("push")
+        & pushed_at_set_direction(runs)
         & (runs.first_impact_group != "")
         & runs.fall_class.isin(list(SIDE_CLASSES))
     ]
@@ -130,12 +129,15 @@ def detection_table(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def clutter_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per robot, obstacle scenario and strategy: landing error, obstacle contacts, head and torso peaks."""
+    """Per robot, obstacle scenario and strategy: landing error, obstacle contacts, head and torso
+    peaks; on the runs among objects whose conditions were set (the regression and validation
+    suites, which draw theirs, are left out)."""
     runs = with_robot(runs)
     cluttered = runs[
         (runs.status == "ok")
         & (runs.obstacle_force_peak.notna())
-        & ~runs.scenario.str.startswith(("push", "drop", "ci_"))
+        & among_objects(runs)
+        & set_conditions(runs)
     ]
     rows = []
     for (robot, scenario, strategy), group in cluttered.groupby(["robot", "scenario", "pre_impact"]):
@@ -157,9 +159,7 @@ def clutter_table(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
-    pushes = runs[
-        (runs.status == "ok") & runs.scenario.str.startswith("push") & (runs.first_impact_group != "")
-    ]
+    pushes = runs[(runs.status == "ok") & pushed_at_set_direction(runs) & (runs.first_impact_group != "")]
     if DIRECTION not in pushes or pushes.pre_impact.nunique() < 2:
         return []
     directions = sorted(pushes[DIRECTION].unique())
@@ -200,7 +200,7 @@ def first_impact_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
     fig.suptitle(
         f"Pushes from the nominal stance: none vs reshape ({len(pushes)} runs that fell, all gain policies)"
     )
-    return _save(fig, out, "preimpact_first_impact")
+    return save_figure(fig, out, "preimpact_first_impact")
 
 
 def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
@@ -250,7 +250,7 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     axes[1].legend(fontsize=8)
     fig.suptitle(f"{point}, {policy}: reshaped fall vs none")
     stem = "reshaped_fall_" + "".join(c if c.isalnum() else "_" for c in point).strip("_") + f"_{policy}"
-    return _save(fig, out, stem)
+    return save_figure(fig, out, stem)
 
 
 def reshape_points(picks) -> list[tuple[str, str]]:

@@ -16,6 +16,7 @@ from typing import NamedTuple
 import pandas as pd
 
 from fallbench.report.grouping import with_robot
+from fallbench.report.selection import among_objects, dropped, pushed
 from fallbench.report.sensitivity import GAIN_SCALE, SWEEPS, sensitivity_runs, value_label
 from fallbench.report.stats import bootstrap
 from fallbench.report.style import ordered
@@ -226,7 +227,7 @@ def _share(runs: pd.DataFrame, column: str) -> str:
 def prescription_claims(runs: pd.DataFrame) -> list[dict[str, str]]:
     """000's prescriptions on the pushes, `none` vs `reshape`; 004's obstacle avoidance with `direction`."""
     rows = []
-    pushes = runs[(runs.status == "ok") & runs.scenario.str.contains("push")]
+    pushes = runs[(runs.status == "ok") & pushed(runs) & ~among_objects(runs)]  # pushes on open ground
     scope = f"pushes ({pushes.point.nunique()} points)"
     if {"none", "reshape"} <= set(pushes.pre_impact):
         none, reshape = pushes[pushes.pre_impact == "none"], pushes[pushes.pre_impact == "reshape"]
@@ -288,7 +289,7 @@ def claims_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Claims over the single 1 m drop, over every drop run of the sweep (default gains), and per
     baseline gain scale of a sensitivity sweep; per robot."""
     runs = with_robot(runs)
-    drops = runs[(runs.status == "ok") & runs.scenario.str.contains("drop") & (runs.pre_impact == "none")]
+    drops = runs[(runs.status == "ok") & dropped(runs) & (runs.pre_impact == "none")]
     if GAIN_SCALE in drops:
         drops = drops[drops[GAIN_SCALE].fillna(1.0) == 1.0]
     rows: list[dict[str, str]] = []
@@ -323,3 +324,17 @@ def verdict_matrix(claims: pd.DataFrame) -> pd.DataFrame:
         index=["robot", "scope"], columns="claim", values="verdict", aggfunc="first", sort=False
     )
     return matrix[[label for label in labels.values() if label in matrix.columns]].reset_index()
+
+
+def robust_claims(claims: pd.DataFrame, halved: pd.DataFrame) -> pd.DataFrame:
+    """The claims table with each verdict at half the step and whether it is the same (robust)."""
+    if halved.empty or claims.empty:
+        return claims
+    at_half = claims_table(halved)
+    if at_half.empty:
+        return claims
+    half = at_half.set_index(["robot", "scope", "claim"])["verdict"]
+    keys = list(zip(claims.robot, claims.scope, claims.claim))
+    verdicts = [half.get(key, "-") for key in keys]
+    robust = ["yes" if v == old else ("-" if v == "-" else "no") for v, old in zip(verdicts, claims.verdict)]
+    return claims.assign(**{"verdict at half the step": verdicts, "robust": robust})

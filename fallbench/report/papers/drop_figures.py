@@ -12,69 +12,18 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from fallbench.report.figure_files import FigureSkipped, plot_series, save_figure
 from fallbench.report.stats import natural_key
 from fallbench.report.style import colour, ordered
 from fallbench.robots import DEFAULT_ROBOT
 
 DASHES = ("-", "--", "-.", ":")  # per policy, in drawing order
 GAINS_ZOOM = 0.25  # s after impact shown in Fig. 5's landing column (002's Fig. 5 spans about this)
-DPI = 110
-PNG_COMPRESSION = 3  # zlib: the same pixels as the default 6, files 2 % larger, saved ~40 % faster
-PLOT_BUCKETS = 800  # min/max pairs a time series keeps (`envelope`): about the axes' width in pixels
-MARGINS = {"left": 0.11, "right": 0.97, "bottom": 0.12, "top": 0.91, "hspace": 0.35, "wspace": 0.22}
-_VECTOR = [False]  # whether `_save` also writes an SVG (`fallbench report --svg`); set per process
-
-
-class FigureSkipped(RuntimeError):
-    """A figure that cannot be drawn (no OpenGL context, no replay): its message is the note."""
-
-
-def set_vector(vector: bool) -> bool:
-    """Write an SVG next to each PNG from now on (in this process), or not; returns the setting before."""
-    before, _VECTOR[0] = _VECTOR[0], vector
-    return before
 
 
 def _impact_line(ax, impact: float) -> None:
     if pd.notna(impact):
         ax.axvline(impact, color="black", linestyle="--", linewidth=0.8, label="impact")
-
-
-def envelope(t: np.ndarray, y: np.ndarray, buckets: int = PLOT_BUCKETS) -> tuple[np.ndarray, np.ndarray]:
-    """The samples a line of `buckets` pixels can show: in each of `buckets` equal runs of samples
-    its smallest and its largest value, in time order (peaks, e.g. the IMU's landing spike, are
-    kept exactly; a series of at most 2 x `buckets` samples is returned as it is)."""
-    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
-    if len(y) <= 2 * buckets:
-        return t, y
-    per = -(-len(y) // buckets)  # samples per bucket, the last one padded with its final value
-    padded = np.concatenate([y, np.full(per * buckets - len(y), y[-1])]).reshape(buckets, per)
-    base = np.arange(buckets) * per
-    low = base + np.argmin(np.where(np.isnan(padded), np.inf, padded), axis=1)
-    high = base + np.argmax(np.where(np.isnan(padded), -np.inf, padded), axis=1)
-    keep = np.unique(np.minimum(np.concatenate([low, high]), len(y) - 1))
-    return t[keep], y[keep]
-
-
-def _plot(ax, t, y, **style) -> None:
-    """`ax.plot` of a time series through `envelope` (what the PNG shows is the same, drawn faster)."""
-    ax.plot(*envelope(t, y), **style)
-
-
-def _save(fig, out: Path, stem: str, margins: dict[str, float] | None = None) -> list[Path]:
-    """Write the figure as `<stem>.png` (and `<stem>.svg` after `set_vector(True)`), then close it.
-    With `margins` (MARGINS' keys, fractions of the figure) its subplots get fixed margins, else
-    tight_layout's: laying the tick labels out takes a third of a simple figure's drawing time."""
-    if margins is None:
-        fig.tight_layout()
-    else:
-        fig.subplots_adjust(**(MARGINS | margins))
-    paths = [out / f"{stem}.png"] + ([out / f"{stem}.svg"] if _VECTOR[0] else [])
-    fig.savefig(paths[0], dpi=DPI, pil_kwargs={"compress_level": PNG_COMPRESSION})
-    for path in paths[1:]:
-        fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return paths
 
 
 def _policy_lines(series: dict[str, pd.DataFrame], rows: pd.DataFrame, column: str):
@@ -84,7 +33,7 @@ def _policy_lines(series: dict[str, pd.DataFrame], rows: pd.DataFrame, column: s
         ts = series[policy]
         # each line thinner and dashed its own way than the one under it: lines that coincide all show
         style = {"color": colour(policy), "linestyle": DASHES[k % len(DASHES)], "linewidth": 3.0 - 0.6 * k}
-        _plot(ax, ts.t, ts[column], label=policy, **style)
+        plot_series(ax, ts.t, ts[column], label=policy, **style)
     _impact_line(ax, rows.impact_time.min())
     ax.set_xlabel("time (s)")
     ax.grid(alpha=0.3)
@@ -110,7 +59,7 @@ def imu_figure(
         title=(wrapped := _wrapped(f"{title}: IMU z (cf. 002 Fig. 6a)")),
     )
     ax.legend()
-    return _save(fig, out, stem, _title_room(wrapped))
+    return save_figure(fig, out, stem, _title_room(wrapped))
 
 
 def knee_figure(
@@ -129,7 +78,7 @@ def knee_figure(
     wrapped = _wrapped(f"{title}: right knee (cf. 002 Fig. 6b)")
     ax.set(ylabel="right knee angle (rad)", title=wrapped)
     ax.legend()
-    return _save(fig, out, stem, _title_room(wrapped))
+    return save_figure(fig, out, stem, _title_room(wrapped))
 
 
 def torque_figure(
@@ -147,7 +96,7 @@ def torque_figure(
     for ax, policy in zip(axes[:, 0], policies):
         ts = series[policy]
         for part, joint in leg.items():
-            _plot(
+            plot_series(
                 ax,
                 ts.t,
                 ts[f"tau:{joint}"],
@@ -167,7 +116,7 @@ def torque_figure(
     fig.suptitle(suptitle, fontsize=10)
     height = 2.2 * len(policies)  # in
     top = 1 - (0.45 + 0.17 * suptitle.count("\n")) / height
-    return _save(fig, out, stem, {"bottom": 0.5 / height, "top": top})
+    return save_figure(fig, out, stem, {"bottom": 0.5 / height, "top": top})
 
 
 def gains_figure(
@@ -185,7 +134,7 @@ def gains_figure(
         ax_k, ax_b, ax_v = axes[:, column]
         shown = (t >= start) & (t <= end)
         for part, joint in leg.items():
-            _plot(
+            plot_series(
                 ax_k,
                 t[shown],
                 ts[f"K:{joint}"][shown],
@@ -193,7 +142,7 @@ def gains_figure(
                 linestyle=styles[part],
                 label=f"{part} pitch",
             )
-            _plot(
+            plot_series(
                 ax_b,
                 t[shown],
                 ts[f"B:{joint}"][shown],
@@ -202,7 +151,7 @@ def gains_figure(
                 label=f"{part} pitch",
             )
         if knee in ts:
-            _plot(
+            plot_series(
                 ax_v,
                 t[shown],
                 np.gradient(ts[knee].to_numpy(dtype=float), t)[shown],
@@ -219,7 +168,9 @@ def gains_figure(
         ax_v.set(ylabel="knee velocity (rad/s)", xlabel="time (s)")
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"{title}: adaptive_qp gains, right leg (cf. 002 Fig. 5)")
-    return _save(fig, out, stem, {"left": 0.07, "right": 0.98, "bottom": 0.08, "top": 0.9, "hspace": 0.15})
+    return save_figure(
+        fig, out, stem, {"left": 0.07, "right": 0.98, "bottom": 0.08, "top": 0.9, "hspace": 0.15}
+    )
 
 
 # ---------------------------------------------------------------- per point: the figures of 002

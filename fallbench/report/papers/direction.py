@@ -3,22 +3,15 @@ rates of `none` vs `direction` on the same falls, and 004's claims with N/M coun
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from matplotlib.axes import Axes
-from matplotlib.patches import Circle as CirclePatch
-from matplotlib.patches import Wedge
-from ruamel.yaml import YAML
 
-from fallbench.preimpact.direction.config import DirectionConfig
-from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
-from fallbench.report.direction_judge import (
-    AUTHORITY_SCENARIO,
+from fallbench.report.figure_files import save_figure
+from fallbench.report.papers.direction_judge import (
     authority_runs,
     authority_table,
     judge_hits,
@@ -27,14 +20,13 @@ from fallbench.report.direction_judge import (
     within_authority_claim,
     without_empty_settings,
 )
-from fallbench.report.figures import _save
-from fallbench.results import store
-from fallbench.scenario import Scenario
+from fallbench.report.papers.direction_top_down import top_down_figure
+from fallbench.report.papers.figures_004 import expected_choices, mirrors
+from fallbench.report.selection import free_space
 
 PAIR_KEYS = ["point", "policy"]
 DIRECTION_PARAM = "param:policy_params.direction."
 PREDICTOR_PARAM = DIRECTION_PARAM + "predictor"
-PLOT_RADIUS = 2.2  # m, extent of the shaded safe cones
 MAX_YAW_ROWS = 4  # layout turns per scenario shown as rows of their own (more: one row, "all")
 
 
@@ -254,12 +246,13 @@ def _prediction_claims(pairs: pd.DataFrame) -> list[dict[str, str]]:
     ]
 
 
-def claims(runs: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
-    """004's qualitative claims against our runs (thresholds are ours: 004 reports single cases)."""
+def claims(runs: pd.DataFrame, pairs: pd.DataFrame, expected: dict[str, str] | None = None) -> pd.DataFrame:
+    """004's qualitative claims against our runs (thresholds are ours: 004 reports single cases);
+    `expected`: the figure mirrors' families -> 004's choice (figures_004.expected_choices)."""
     if pairs.empty:
         return pd.DataFrame()
     rows = _avoidance_claims(pairs) + _strategy_claims(pairs) + _prediction_claims(pairs)
-    return pd.DataFrame(rows + _ablation(runs) + _mirrors(pairs))
+    return pd.DataFrame(rows + _ablation(runs) + _mirrors(pairs, expected or {}))
 
 
 def _ablation(runs: pd.DataFrame) -> list[dict[str, str]]:
@@ -283,15 +276,8 @@ def _ablation(runs: pd.DataFrame) -> list[dict[str, str]]:
     ]
 
 
-def _mirrors(pairs: pd.DataFrame) -> list[dict[str, str]]:
-    """Each figure mirror picks 004's strategy."""
-    expected = {
-        "dir_fig1": "take_step",
-        "dir_fig6": "no_action",
-        "dir_fig7": "lift_leg",
-        "dir_fig8": "take_step+pis",
-        "dir_fig9": "no_action+wbis",
-    }
+def _mirrors(pairs: pd.DataFrame, expected: dict[str, str]) -> list[dict[str, str]]:
+    """Each figure mirror picks 004's strategy (`expected`: family -> 004's choice, figures_004.py)."""
     cases = pairs[pairs.scenario.isin(expected)]
     if cases.empty:
         return []
@@ -307,132 +293,6 @@ def _mirrors(pairs: pd.DataFrame) -> list[dict[str, str]]:
             "N/M": f"{match}/{len(picks)}; {numbers}",
         }
     ]
-
-
-def _scenario(results: Path, run_id: str) -> Scenario:
-    spec = YAML(typ="safe", pure=True).load((store.run_dir(results, run_id) / "spec.yaml").read_text())
-    return Scenario.model_validate(spec["scenario"])
-
-
-def _ray(origin: np.ndarray, degrees: float, length: float) -> np.ndarray:
-    """Start and end of a ray from `origin` (m) at `degrees`, as x and y rows for `plot`."""
-    angle = math.radians(degrees)
-    return np.c_[origin, origin + length * np.array([math.cos(angle), math.sin(angle)])]
-
-
-def _draw_safe_regions(ax: Axes, scenario: Scenario, config: DirectionConfig, origin: np.ndarray) -> None:
-    """Shade the safe cones about `origin` between the grown object circles."""
-    grown = grown_circles(
-        scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height
-    )
-    for region in safe_regions(grown, origin):
-        start = math.degrees(region.start)
-        ax.add_patch(
-            Wedge(
-                origin,
-                PLOT_RADIUS,
-                start,
-                start + math.degrees(region.width),
-                color="#17becf",
-                alpha=0.18,
-                lw=0,
-            )
-        )
-
-
-def _draw_objects(ax: Axes, scenario: Scenario, robot_radius: float) -> None:
-    """Each object's circle, and dashed, the circle grown by the robot's radius."""
-    for obstacle in scenario.obstacles:
-        circle = object_circle(obstacle)
-        ax.add_patch(CirclePatch(circle.centre, circle.radius, color="#8c564b", alpha=0.55))
-        ax.add_patch(
-            CirclePatch(
-                circle.centre,
-                circle.radius + robot_radius,
-                fill=False,
-                ls="--",
-                color="#8c564b",
-                lw=0.8,
-            )
-        )
-
-
-def _draw_com_paths(ax: Axes, rows: pd.DataFrame, results: Path) -> None:
-    """The CoM's path of the `none` and the `direction` run, each marked hit or clear."""
-    for name, colour in (("none", "#7f7f7f"), ("direction", "#1f77b4")):
-        series = store.load_timeseries(results, rows.loc[name, "run_id"])
-        hit = "hit" if rows.loc[name, "obstacle_hit"] else "clear"
-        ax.plot(series.com_x, series.com_y, color=colour, lw=2, label=f"CoM, {name} ({hit})")
-
-
-def _draw_candidates(ax: Axes, chosen: pd.Series, origin: np.ndarray) -> None:
-    """Each candidate strategy's predicted direction, green when its score is safe (<= 1), with its
-    name and score."""
-    candidates = sorted(json.loads(chosen.direction_candidates or "[]"), key=lambda c: c["deg"])
-    level, previous = 0, -math.inf
-    for candidate in candidates:
-        angle = math.radians(candidate["deg"])
-        level, previous = (
-            (level + 1 if candidate["deg"] - previous < 8.0 else 0),
-            candidate["deg"],
-        )  # stagger close rays' labels
-        safe = candidate["score"] is not None and candidate["score"] <= 1.0
-        ax.plot(
-            *_ray(origin, candidate["deg"], 1.0),
-            color="#009E73" if safe else "#D55E00",  # Okabe-Ito: told apart with any colour vision
-            lw=0.8,
-            alpha=0.7,
-        )
-        ax.annotate(
-            f"{candidate['name']} {candidate['score'] if candidate['score'] is not None else 'inf'}",
-            origin + (1.05 + 0.13 * level) * np.array([math.cos(angle), math.sin(angle)]),
-            fontsize=6,
-        )
-
-
-def _draw_chosen_directions(ax: Axes, chosen: pd.Series, origin: np.ndarray) -> None:
-    """The chosen strategy's predicted fall direction and the desired one (theta_d), where known."""
-    for value, style, label in (
-        (chosen.predicted_fall_direction_deg, dict(color="black", ls="--"), "predicted (chosen)"),
-        (chosen.desired_fall_direction_deg, dict(color="red"), "desired theta_d"),
-    ):
-        if np.isfinite(value):
-            ax.plot(
-                *_ray(origin, value, 1.6),
-                lw=1.5,
-                label=label,
-                **style,
-            )
-
-
-def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, policy: str) -> list[Path]:
-    """004's view from above: objects and grown circles, safe cones about the CoM at the control
-    trigger, CoM paths of none and direction, candidates' predicted directions, the chosen and
-    desired directions."""
-    rows = runs[(runs.point == point) & (runs.policy == policy) & (runs.status == "ok")].set_index(
-        "pre_impact"
-    )
-    rows = store.with_timeseries(results, rows)
-    if not {"none", "direction"} <= set(rows.index):
-        return []
-    chosen = rows.loc["direction"]
-    scenario = _scenario(results, chosen.run_id)
-    config = DirectionConfig(**scenario.policy_params.get("direction", {}))
-    origin = np.array([chosen.direction_origin_x, chosen.direction_origin_y])
-    if not np.isfinite(origin).all():
-        return []
-    fig, ax = plt.subplots(figsize=(6.5, 6.5))
-    _draw_safe_regions(ax, scenario, config, origin)
-    _draw_objects(ax, scenario, config.robot_radius)
-    _draw_com_paths(ax, rows, results)
-    _draw_candidates(ax, chosen, origin)
-    _draw_chosen_directions(ax, chosen, origin)
-    ax.set(xlim=(-2.4, 2.4), ylim=(-2.4, 2.4), aspect="equal", xlabel="x (m)", ylabel="y (m)")
-    ax.set_title(f"{point} ({policy})\ndirection chose {chosen.direction_strategy or 'nothing'}", fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower left")
-    stem = "direction_" + "".join(c if c.isalnum() else "_" for c in point).strip("_") + f"_{policy}"
-    return _save(fig, out, stem)
 
 
 def variant_label(pairs: pd.DataFrame) -> pd.Series:
@@ -461,7 +321,7 @@ def hit_rate_figure(pairs: pd.DataFrame, out: Path) -> list[Path]:
     ax.set(ylabel="falls hitting an object (%)", ylim=(0, 105), title="Object hits: none vs direction (004)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, axis="y")
-    return _save(fig, out, "direction_hit_rates")
+    return save_figure(fig, out, "direction_hit_rates")
 
 
 def direction_report(
@@ -477,18 +337,22 @@ def direction_report(
     )
     pairs = paired(runs)
     # the authority suite's forced runs in free space are measurements, not falls to judge
-    pairs = pairs[pairs.scenario != AUTHORITY_SCENARIO] if not pairs.empty else pairs
+    free = set(runs.loc[free_space(runs), "scenario"])
+    pairs = pairs[~pairs.scenario.isin(free)] if not pairs.empty else pairs
     if pairs.empty:
         return [], authority_tables
     paths = hit_rate_figure(pairs, out)
     hits = judge_hits(pairs, results, authority)
     policy = "stiff" if (pairs.policy == "stiff").any() else pairs.policy.iloc[0]
-    cases = sorted(pairs[pairs.scenario.str.startswith("dir_fig")].point.unique())
+    found = mirrors(runs, results)
+    cases = sorted(pairs[pairs.scenario.isin(found)].point.unique())
     for point in cases:
         paths += top_down_figure(runs, results, out, point, policy)
     tables = {
         "Object hits, none vs direction (004)": hit_table(pairs),
-        "Claims of 004": pd.concat([claims(runs, pairs), pd.DataFrame(within_authority_claim(hits))]),
+        "Claims of 004": pd.concat(
+            [claims(runs, pairs, expected_choices(runs, found)), pd.DataFrame(within_authority_claim(hits))]
+        ),
     }
     tables |= authority_tables
     if not authority.empty:
