@@ -85,9 +85,16 @@ def _policies(text: str) -> list[str]:
 
 
 def _robot(name: str | None) -> str | None:
-    from fallbench.robots import ROBOTS
+    """`--robot`: a shipped robot's name, or a robot card's path (from the current folder)."""
+    from fallbench.robots import resolve_robot, robot_problem
 
-    return None if name is None else _names(name, ROBOTS, "--robot", "robot")[0]
+    if name is None:
+        return None
+    robot = resolve_robot(name.strip(), Path.cwd())
+    problem = robot_problem(robot)
+    if problem:
+        fail(f"--robot: {problem}")
+    return robot
 
 
 def _strategies(text: str) -> list[str]:
@@ -215,7 +222,7 @@ def run_sweep_command(
     progress: bool = typer.Option(True, help="Show a progress bar."),
     robot: str | None = typer.Option(
         None,
-        help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see docs/scenarios.md).",
+        help="Run every file on this robot (a shipped name, or a robot card file), replacing the files' `robot` and any sweep over robots (sizes scale, see docs/scenarios.md).",
     ),
     policy_param: list[str] = typer.Option(
         [],

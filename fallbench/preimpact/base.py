@@ -42,6 +42,9 @@ class Strategy(ABC):
     # policies); its runs carry no gain policy (`-`). Its control rate is its own: `step` is called
     # every control step and returns None between its own decisions.
     hands_over: bool = True
+    # Parts of the robot description it cannot work without (RobotDescription field names): a robot
+    # whose card leaves one out is refused when scenarios load, before any run.
+    robot_needs: tuple[str, ...] = ()
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         self.params = resolved_params(
