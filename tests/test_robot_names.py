@@ -120,4 +120,6 @@ def test_module_names_no_robot(path: Path) -> None:
 @pytest.mark.parametrize("path", ROBOT_MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_robot_layer_names_no_joint_or_body(path: Path) -> None:
     """The robot layer reads cards: a joint or body name belongs in a card, not in Python."""
-    assert robot_names_in(path, robot_words=False) == [], f"{path.name} names a joint or body; put it in a card"
+    assert robot_names_in(path, robot_words=False) == [], (
+        f"{path.name} names a joint or body; put it in a card"
+    )
