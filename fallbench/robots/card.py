@@ -173,7 +173,7 @@ def load_card(path: Path) -> RobotDescription:
     """The robot of a card file; InputError (file, line, key, reason) on any problem."""
     docs = read_yaml(path, KIND)
     if len(docs) > 1:
-        raise InputError(path, line_of(docs[1], ()) or None, "", "a robot card holds one YAML document")
+        raise InputError(path, docs[1].lc.line + 1, "", "a robot card holds one YAML document")
     doc = docs[0]
     try:
         card = RobotCard.model_validate(plain(doc))
@@ -245,6 +245,7 @@ class CardReader:
         return tuple(dict.fromkeys(body for bodies in found for body in bodies))
 
     def description(self) -> RobotDescription:
+        """The robot description the card gives, every name checked and every pattern expanded."""
         card = self.card
         self._check_bodies()
         self._check_joints()
