@@ -426,7 +426,7 @@ def _points(
                         path, line_of(doc, _origin(spec, key)), key, "not a key of the scenario"
                     ) from None
             yaw = data.pop("layout_yaw", 0.0)
-            if isinstance(yaw, bool) or not isinstance(yaw, (int, float)):
+            if isinstance(yaw, bool) or not isinstance(yaw, (int, float)) or not math.isfinite(yaw):
                 raise ScenarioError(
                     path,
                     line_of(doc, _origin(spec, "layout_yaw")),
