@@ -50,6 +50,10 @@ app.add_typer(run_app, name="run")
 app.add_typer(scenarios_app, name="scenarios")
 direction_app = typer.Typer(help="004's direction-changing fall control: measurements.", no_args_is_help=True)
 app.add_typer(direction_app, name="direction")
+robots_app = typer.Typer(
+    help="Robots: the shipped cards, and whether a card can run the benchmark.", no_args_is_help=True
+)
+app.add_typer(robots_app, name="robots")
 
 TIMESERIES_HELP = "How much of each run's time series to store: landing (every physics step about the first impact and each body group's first contact, 100 Hz elsewhere, quantised; ~55 KiB a run), full (every physics step, float32 as computed), none (metrics only: no replay or paper figures of the run)."
 
@@ -84,10 +88,18 @@ def _policies(text: str) -> list[str]:
     return _names(text, POLICIES, "--policies", "policy")
 
 
-def _robot(name: str | None) -> str | None:
-    from fallbench.robots import ROBOTS
+def _robot(name: str | None, option: str = "--robot") -> str | None:
+    """A robot option or argument: a shipped robot's name, or a robot card's path (from the
+    current folder), made absolute."""
+    from fallbench.robots import resolve_robot, robot_problem
 
-    return None if name is None else _names(name, ROBOTS, "--robot", "robot")[0]
+    if name is None:
+        return None
+    robot = resolve_robot(name.strip(), Path.cwd())
+    problem = robot_problem(robot)
+    if problem:
+        fail(f"{option}: {problem}")
+    return robot
 
 
 def _strategies(text: str) -> list[str]:
@@ -215,7 +227,7 @@ def run_sweep_command(
     progress: bool = typer.Option(True, help="Show a progress bar."),
     robot: str | None = typer.Option(
         None,
-        help="Run every file on this registered robot, replacing the files' `robot` and any sweep over robots (sizes scale, see docs/scenarios.md).",
+        help="Run every file on this robot (a shipped name, or a robot card file), replacing the files' `robot` and any sweep over robots (sizes scale, see docs/scenarios.md).",
     ),
     policy_param: list[str] = typer.Option(
         [],
@@ -869,6 +881,54 @@ def _store_table(make: Callable[[Path], pd.DataFrame], results: Path, empty: str
 
 def main() -> None:
     app()
+
+
+ROBOT_ARGUMENT = typer.Argument(..., help="A shipped robot's name, or a robot card file (*.yaml).")
+
+
+@robots_app.command("list")
+def robots_list_command() -> None:
+    """The shipped robots: name, mass, standing height and card file."""
+    from fallbench.robots import ROBOTS, get_robot
+
+    for name, card in ROBOTS.items():
+        robot = get_robot(name)
+        typer.echo(f"{name:<10} {robot.mass:6.1f} kg  standing {robot.standing_height:.3f} m  {card}")
+
+
+@robots_app.command("show")
+def robots_show_command(robot: str = ROBOT_ARGUMENT) -> None:
+    """What a robot's card gives: model files, bodies, postures, gains, body groups, legs, arms, feet."""
+    from fallbench.results.robot_check import describe
+
+    try:
+        lines = describe(_robot(robot, "ROBOT") or "")
+    except ScenarioError as exc:
+        fail(str(exc))
+    typer.echo("\n".join(lines))
+
+
+@robots_app.command("check")
+def robots_check_command(robot: str = ROBOT_ARGUMENT) -> None:
+    """Compile the robot and check that it can run the benchmark: joint ranges and torque limits,
+    body groups, no parts touching in its stance, standing still 2 s under `stiff` at its standing
+    height, Pinocchio and MuJoCo agreeing.
+
+    Exit 0 when it can; exit 1 with the reasons when it cannot; exit 2 on a bad card (one line).
+    """
+    from fallbench.results.robot_check import check_robot
+
+    try:
+        report = check_robot(_robot(robot, "ROBOT") or "")
+    except ScenarioError as exc:
+        fail(str(exc))
+    typer.echo("\n".join(report.lines))
+    if report.problems:
+        for problem in report.problems:
+            typer.echo(f"problem: {problem}", err=True)
+        typer.echo(f"{robot} cannot run the benchmark ({len(report.problems)} problem(s))", err=True)
+        raise typer.Exit(1)
+    typer.echo(f"ok: {robot} can run the benchmark")
 
 
 if __name__ == "__main__":

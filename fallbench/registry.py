@@ -33,6 +33,8 @@ from fallbench.preimpact.direction.strategy import DirectionStrategy
 from fallbench.preimpact.learned.onnx import OnnxStrategy
 from fallbench.preimpact.none import NoStrategy
 from fallbench.preimpact.reshape.strategy import ReshapeStrategy
+from fallbench.robots import get_robot
+from fallbench.robots.card import card_key
 from fallbench.scenario import Scenario, ScenarioPoint, load_scenarios
 from fallbench.sim.episode import run_episode
 from fallbench.sim.recorder import Recording
@@ -136,11 +138,20 @@ def run_policy(pre_impact: str, policy: str) -> str:
 
 
 def check_strategies(scenario: Scenario, names: list[str] | tuple[str, ...]) -> tuple[str, str] | None:
-    """(key, reason) of the first problem of these strategies' own checks (a model file) on
-    `scenario`, else None."""
+    """(key, reason) of the first problem of these strategies on `scenario`: a part of the robot
+    one needs that its card leaves out, or the strategy's own checks (a model file); else None."""
     for name in names:
         strategy = STRATEGIES.get(name)
-        problem = strategy.check(scenario) if strategy is not None else None
+        if strategy is None:
+            continue
+        robot = get_robot(scenario.robot)
+        missing = robot.missing(strategy.robot_needs)
+        if missing:
+            return "robot", (
+                f"strategy {name!r} needs the robot's `{card_key(missing)}`, which {robot.card_path} "
+                "does not give"
+            )
+        problem = strategy.check(scenario)
         if problem:
             return problem
     return None

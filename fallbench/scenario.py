@@ -8,7 +8,6 @@ sweep points, robot names, obstacles against the robot's start pose) before anyt
 from __future__ import annotations
 
 import copy
-import datetime
 import hashlib
 import itertools
 import json
@@ -19,29 +18,27 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import (
-    AfterValidator,
-    BaseModel,
-    ConfigDict,
-    Field,
-    ValidationError,
-    field_validator,
-    model_validator,
-)
-from ruamel.yaml import YAML
-from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
-from ruamel.yaml.error import MarkedYAMLError, YAMLError
+from pydantic import AfterValidator, Field, ValidationError, field_validator, model_validator
+from ruamel.yaml.comments import CommentedMap
 
-from fallbench.robots import DEFAULT_ROBOT, ROBOTS, get_robot
+from fallbench.robots import DEFAULT_ROBOT, get_robot, resolve_robot, robot_problem
 from fallbench.robots.description import DEFAULT_POSTURE
+from fallbench.yamlfile import (
+    FieldProblem,
+    InputError,
+    Strict,
+    error_location,
+    line_of,
+    plain,
+    read_yaml,
+    validation_error,
+)
 
 # Every number of a scenario is finite (Strict's allow_inf_nan=False) and within a documented
 # range (docs/scenarios.md, "Ranges"): give each new numeric field bounds (test_scenario_ranges checks that
 # every numeric field of the schema has a lower and an upper one).
 MAX_STEPS_PER_RUN = 200_000  # physics steps (duration / physics_dt) of one run: ~10-15 s of wall time
 MAX_POINTS_PER_FILE = 10_000  # sweep points x seeds of one scenario file
-MAX_FILE_BYTES = 128 << 10  # 128 KiB: a scenario file is a page or two of YAML (parsing 128 KiB takes ~1 s)
-MAX_NESTING = 16  # levels of YAML mappings and lists
 MAX_TEXT = 200  # characters of a name
 
 Seconds = Annotated[float, Field(gt=0, le=60)]  # durations, s
@@ -50,18 +47,6 @@ Degrees = Annotated[float, Field(ge=-360, le=360)]
 Position = Annotated[float, Field(ge=-20, le=20)]  # m: the floor is 40 m x 40 m
 Size = Annotated[float, Field(gt=0, le=10)]  # m
 Name = Annotated[str, Field(min_length=1, max_length=MAX_TEXT)]
-
-
-class FieldProblem(ValueError):
-    """A problem found by a model validator that belongs to one field (for the error's key and line)."""
-
-    def __init__(self, key: str, reason: str) -> None:
-        super().__init__(reason)
-        self.key = key
-
-
-class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Initial(Strict):
@@ -229,7 +214,9 @@ class Scenario(Strict):
     """One fully resolved scenario point (no sweep left)."""
 
     name: Name
-    robot: Name = DEFAULT_ROBOT  # default: files written before other robots existed describe TALOS
+    # a shipped robot's name, or the absolute path of a robot card (a file gives it relative to itself);
+    # default: files written before other robots existed describe TALOS
+    robot: Annotated[str, Field(min_length=1, max_length=4096)] = DEFAULT_ROBOT
     # s: the cap. A run ends once the robot has come to rest (`rest`), or at the cap, flagged as
     # not settled; every whole-run measure is read over the run to rest.
     duration: Seconds = DEFAULT_CAP
@@ -304,19 +291,16 @@ class ScenarioFile(Scenario):
         0.0  # deg: turns every obstacle about the world z axis through the origin (the robot)
     )
     sizes_for: Name | None = (
-        None  # robot the push forces and obstacle geometry are written for (scaled on others)
+        None  # robot (name or card) the push forces and obstacle geometry are written for (scaled on others)
     )
-    per_robot: dict[Name, dict[Name, Any]] = {}  # robot -> dotted key -> value, applied after the scaling
+    per_robot: dict[
+        Name, dict[Name, Any]
+    ] = {}  # robot (name or card) -> dotted key -> value, after the scaling
 
 
-class ScenarioError(ValueError):
-    """Bad scenario input: carries file, line and key so the CLI prints one clear line."""
-
-    def __init__(self, path: Path | str, line: int | None, key: str, reason: str) -> None:
-        key, reason = " ".join(key.split()), " ".join(reason.split())  # always one line
-        self.path, self.line, self.key, self.reason = str(path), line, key, reason
-        where = f"{self.path}:{line}" if line else self.path
-        super().__init__(f"{where}: {key}: {reason}" if key else f"{where}: {reason}")
+ScenarioError = InputError  # bad scenario input (or a bad robot card it names): one line, exit 2
+KIND = "scenario file"  # how messages name the file
+UNION_TAGS = ("box", "cylinder")  # the obstacle types: pydantic puts them into an error's location
 
 
 @dataclass(frozen=True)
@@ -351,158 +335,6 @@ class ScenarioPoint:
 
 def _fmt(value: Any) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
-
-
-# ---------------------------------------------------------------- YAML with line numbers
-
-
-def _line_of(doc: Any, loc: tuple[Any, ...]) -> int | None:
-    """1-based line of the deepest node of `loc` that exists in the parsed YAML (a key set after
-    parsing, e.g. the environment's `physics_dt`, has none: the line of its parent)."""
-    node, line = doc, None
-    for part in loc:
-        if isinstance(node, CommentedMap) and part in node and part in (node.lc.data or {}):
-            line = node.lc.key(part)[0] + 1
-            node = node[part]
-        elif isinstance(node, CommentedSeq) and isinstance(part, int) and part < len(node):
-            line = node.lc.item(part)[0] + 1
-            node = node[part]
-        else:
-            break
-    return line
-
-
-def _read_text(path: Path) -> str:
-    """The file as UTF-8 text: not too large, not binary."""
-    try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise ScenarioError(
-                path,
-                None,
-                "",
-                f"file too large ({size:,} bytes; a scenario file holds at most {MAX_FILE_BYTES:,})",
-            )
-        data = path.read_bytes()
-    except OSError as exc:
-        raise ScenarioError(path, None, "", f"cannot read file ({exc.strerror})") from None
-    if b"\0" in data:
-        line = data[: data.index(b"\0")].count(b"\n") + 1
-        raise ScenarioError(path, line, "", "binary file (NUL byte): a scenario file is UTF-8 YAML text")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        raise ScenarioError(
-            path,
-            line,
-            "",
-            f"not UTF-8 text (byte 0x{data[exc.start]:02x}): a scenario file is UTF-8 YAML text",
-        ) from None
-
-
-PLAIN_SCALARS = (str, int, float, bool, type(None), datetime.date)  # dates: implicit YAML timestamps
-
-
-def _check_tree(
-    path: Path, node: Any, where: tuple[Any, ...] = (), line: int = 1, seen: set[int] | None = None
-) -> None:
-    """Reject what plain scenario data never needs: tags (`!!python/...`, `!foo`, `!!binary`,
-    `!!set`), aliases of mappings or lists (they multiply nodes), nesting deeper than MAX_NESTING,
-    keys that are not plain scalars."""
-    seen = set() if seen is None else seen
-    key = ".".join(map(str, where))
-    if type(node) in (CommentedMap, CommentedSeq):
-        if node.tag.value is not None:
-            raise ScenarioError(
-                path, line, key, f"YAML tags ({node.tag.value}) are not allowed in scenario files"
-            )
-        if id(node) in seen:
-            raise ScenarioError(
-                path,
-                line,
-                key,
-                "YAML aliases (*name) of mappings or lists are not allowed in scenario files: write the value out",
-            )
-        seen.add(id(node))
-        if len(where) >= MAX_NESTING:
-            raise ScenarioError(path, line, key, f"nested deeper than {MAX_NESTING} levels")
-        if isinstance(node, CommentedMap):
-            for name, value in node.items():
-                here = node.lc.key(name)[0] + 1
-                if not isinstance(name, PLAIN_SCALARS):
-                    raise ScenarioError(path, here, key, "a key must be a plain name")
-                _check_tree(path, value, where + (name,), here, seen)
-        else:
-            for index, value in enumerate(node):
-                _check_tree(path, value, where + (index,), node.lc.item(index)[0] + 1, seen)
-    elif not isinstance(node, PLAIN_SCALARS) or isinstance(node, TaggedScalar):
-        tag = getattr(node, "tag", None)
-        what = (
-            f"YAML tags ({getattr(tag, 'value', tag)})"
-            if tag is not None
-            else f"YAML tags and special types (here a {type(node).__name__})"
-        )
-        raise ScenarioError(path, line, key, f"{what} are not allowed in scenario files")
-
-
-def _read_yaml(path: Path) -> list[CommentedMap]:
-    """The YAML documents of a file (several families can share a file, separated by `---`)."""
-    text = _read_text(path)
-    try:
-        docs = list(YAML(typ="rt").load_all(text))
-    except RecursionError:
-        raise ScenarioError(path, None, "", f"nested far deeper than {MAX_NESTING} levels") from None
-    except MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = mark.line + 1 if mark else None
-        reason = f"malformed YAML: {exc.problem or exc.context}"
-        if exc.context and exc.context_mark and exc.problem:
-            reason += f" ({exc.context} started at line {exc.context_mark.line + 1})"
-        raise ScenarioError(path, line, "", reason) from None
-    except YAMLError as exc:  # the reader's errors (e.g. a control character) carry no mark
-        raise ScenarioError(path, None, "", f"malformed YAML: {exc}") from None
-    docs = [doc for doc in docs if doc is not None]
-    if not docs:
-        raise ScenarioError(path, 1, "", "empty file: expected a scenario mapping")
-    for doc in docs:
-        if not isinstance(doc, CommentedMap):
-            line = doc.lc.line + 1 if hasattr(doc, "lc") else 1
-            raise ScenarioError(path, line, "", "a scenario document must be a YAML mapping")
-        _check_tree(path, doc)
-    return docs
-
-
-def _plain(node: Any) -> Any:
-    """ruamel's round-trip containers as plain dicts and lists."""
-    if isinstance(node, dict):
-        return {str(k): _plain(v) for k, v in node.items()}
-    if isinstance(node, list):
-        return [_plain(v) for v in node]
-    return node
-
-
-def _loc(err: Any) -> tuple[Any, ...]:
-    """Where a pydantic error is: its location, without union tags, plus a FieldProblem's field."""
-    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in ("box", "cylinder")))
-    problem = (err.get("ctx") or {}).get("error")
-    return loc + tuple(problem.key.split(".")) if isinstance(problem, FieldProblem) else loc
-
-
-def _validation_error(
-    path: Path, doc: Any, exc: ValidationError, line_loc: tuple[Any, ...] = ()
-) -> ScenarioError:
-    err = exc.errors()[0]
-    loc = _loc(err)
-    key = ".".join(str(p) for p in loc) or "(top level)"
-    line = _line_of(doc, line_loc or loc) or 1
-    reason = err["msg"].removeprefix("Value error, ")
-    if err["type"] == "extra_forbidden":
-        reason = "unknown key"
-    elif "input" in err and err["type"] not in ("missing",) and not isinstance(err["input"], dict):
-        got = repr(err["input"])
-        reason += f" (got {got if len(got) <= 60 else got[:57] + '...'})"
-    return ScenarioError(path, line, key, reason)
 
 
 # ---------------------------------------------------------------- sizes that depend on the robot
@@ -569,7 +401,7 @@ def _turn_layout(data: dict[str, Any], yaw_deg: float) -> None:
 def _points(
     path: Path, doc: CommentedMap, spec: ScenarioFile, robot: str | None = None
 ) -> list[ScenarioPoint]:
-    base = _plain(doc)
+    base = plain(doc)
     for key in ("sweep", "randomize", "seeds", "sizes_for", "per_robot"):
         base.pop(key, None)
     sweep = (
@@ -591,17 +423,19 @@ def _points(
                     _set_dotted(data, key, value)
                 except (KeyError, TypeError):
                     raise ScenarioError(
-                        path, _line_of(doc, _origin(spec, key)), key, "not a key of the scenario"
+                        path, line_of(doc, _origin(spec, key)), key, "not a key of the scenario"
                     ) from None
             yaw = data.pop("layout_yaw", 0.0)
-            if isinstance(yaw, bool) or not isinstance(yaw, (int, float)):
+            if isinstance(yaw, bool) or not isinstance(yaw, (int, float)) or not math.isfinite(yaw):
                 raise ScenarioError(
                     path,
-                    _line_of(doc, _origin(spec, "layout_yaw")),
+                    line_of(doc, _origin(spec, "layout_yaw")),
                     "layout_yaw",
                     f"expected degrees (got {yaw!r})",
                 )
             _turn_layout(data, yaw)
+            if isinstance(data.get("robot"), str):
+                data["robot"] = resolve_robot(data["robot"], path.parent)
             swept.update(_robot_sizes(path, doc, spec, data))
             try:
                 scenario = Scenario.model_validate(data)
@@ -613,23 +447,26 @@ def _points(
 
 def _robot_sizes(path: Path, doc: CommentedMap, spec: ScenarioFile, data: dict[str, Any]) -> dict[str, float]:
     """Scale a point's sizes to its robot and apply the file's per-robot values, in place;
-    returns the factors applied, as `scale:*` entries for the point's record."""
+    returns the factors applied, as `scale:*` entries for the point's record. Robots are compared
+    as runs carry them (card paths resolved from the file's folder)."""
     robot = data.get("robot", DEFAULT_ROBOT)
-    if not isinstance(robot, str) or robot not in ROBOTS:
+    if not isinstance(robot, str) or robot_problem(robot):
         return {}  # reported by the schema (a name) or by check_scenario (a robot), at the `robot` key
     applied: dict[str, float] = {}
-    if spec.sizes_for is not None and robot != spec.sizes_for:
-        scales = robot_scales(robot, spec.sizes_for)
+    sizes_for = resolve_robot(spec.sizes_for, path.parent) if spec.sizes_for is not None else None
+    if sizes_for is not None and robot != sizes_for:
+        scales = robot_scales(robot, sizes_for)
         _scale_sizes(data, scales)
         applied = {f"{SCALE_PREFIX}{name}": factor for name, factor in scales.items()}
-    for key, value in spec.per_robot.get(robot, {}).items():
+    written = {resolve_robot(name, path.parent): name for name in spec.per_robot}.get(robot)
+    for key, value in spec.per_robot.get(written or "", {}).items():
         try:
             _set_dotted(data, key, copy.deepcopy(value))
         except (KeyError, TypeError):
             raise ScenarioError(
                 path,
-                _line_of(doc, ("per_robot", robot, key)),
-                f"per_robot.{robot}.{key}",
+                line_of(doc, ("per_robot", written, key)),
+                f"per_robot.{written}.{key}",
                 "not a key of the scenario",
             ) from None
     return applied
@@ -640,12 +477,12 @@ def _sweep_error(
 ) -> ScenarioError:
     """The error of a swept value, located at the sweep (or randomize) entry that produced it."""
     for err in exc.errors():
-        bad = ".".join(str(p) for p in _loc(err))
+        bad = ".".join(str(p) for p in error_location(err, UNION_TAGS))
         key = next((k for k in swept if bad.startswith(k)), None)
         if key is not None:
             single = ValidationError.from_exception_data(exc.title, [err])  # type: ignore[list-item]
-            return _validation_error(path, doc, single, _origin(spec, key))
-    return _validation_error(path, doc, exc)
+            return validation_error(path, doc, single, _origin(spec, key), UNION_TAGS)
+    return validation_error(path, doc, exc, tags=UNION_TAGS)
 
 
 def _origin(spec: ScenarioFile, key: str) -> tuple[str, str]:
@@ -664,41 +501,37 @@ def load_scenario_file(
     for problems the schema cannot (robot, scene, controllers: `fallbench.registry.check_scenario`);
     its key is located in the file."""
     path = Path(path)
-    return [point for doc in _read_yaml(path) for point in _load_document(path, doc, robot, check)]
+    return [point for doc in read_yaml(path, KIND) for point in _load_document(path, doc, robot, check)]
 
 
 def _load_document(
     path: Path, doc: CommentedMap, robot: str | None, check: Check | None
 ) -> list[ScenarioPoint]:
     try:
-        spec = ScenarioFile.model_validate(_plain(doc))
+        spec = ScenarioFile.model_validate(plain(doc))
     except ValidationError as exc:
-        raise _validation_error(path, doc, exc) from None
+        raise validation_error(path, doc, exc, tags=UNION_TAGS) from None
     for key, (low, high) in spec.randomize.items():
         if low > high:
             raise ScenarioError(
-                path, _line_of(doc, ("randomize", key)), f"randomize.{key}", f"empty range [{low}, {high}]"
+                path, line_of(doc, ("randomize", key)), f"randomize.{key}", f"empty range [{low}, {high}]"
             )
     for key, values in spec.sweep.items():
         if not values:
-            raise ScenarioError(path, _line_of(doc, ("sweep", key)), f"sweep.{key}", "empty list of values")
+            raise ScenarioError(path, line_of(doc, ("sweep", key)), f"sweep.{key}", "empty list of values")
     for key, names in (
         ("sizes_for", [spec.sizes_for] if spec.sizes_for else []),
         ("per_robot", list(spec.per_robot)),
     ):
         for name in names:
-            if name not in ROBOTS:
-                raise ScenarioError(
-                    path,
-                    _line_of(doc, (key,)),
-                    key,
-                    f"unknown robot {name!r} (known: {', '.join(sorted(ROBOTS))})",
-                )
+            problem = robot_problem(resolve_robot(name, path.parent))
+            if problem:
+                raise ScenarioError(path, line_of(doc, (key,)), key, problem)
     count = math.prod(len(values) for values in spec.sweep.values()) * spec.seeds
     if count > MAX_POINTS_PER_FILE:
         raise ScenarioError(
             path,
-            _line_of(doc, ("sweep",)) or _line_of(doc, ("seeds",)),
+            line_of(doc, ("sweep",)) or line_of(doc, ("seeds",)),
             "sweep",
             f"{count:,} points (sweep values x seeds), over the limit of {MAX_POINTS_PER_FILE:,} per file",
         )
@@ -716,7 +549,7 @@ def _load_document(
             key, reason = problem
             loc = tuple(int(p) if p.isdigit() else p for p in key.split("."))
             origin = next((_origin(spec, k) for k in point.swept if key.startswith(k)), loc)
-            raise ScenarioError(path, _line_of(doc, origin) or _line_of(doc, loc), key, reason)
+            raise ScenarioError(path, line_of(doc, origin) or line_of(doc, loc), key, reason)
     return points
 
 
@@ -747,7 +580,7 @@ def resolved_params(kind: str, name: str, defaults: dict[str, Any], given: dict[
 
 def read_documents(path: Path | str) -> list[Any]:
     """A scenario file's YAML documents, parsed once (for `points_with_seed`)."""
-    return _read_yaml(Path(path))
+    return read_yaml(Path(path), KIND)
 
 
 def points_with_seed(

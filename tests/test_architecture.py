@@ -1,4 +1,4 @@
-"""The package's shape: imports flow one way, from the CLI down to the robots.
+"""The package's shape: imports flow one way, from the CLI down to the robots and the YAML reader.
 
 Every import counts (module level, function-local and `TYPE_CHECKING` ones): a deferred import is a
 design dependency all the same.
@@ -16,6 +16,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "fallbench"
 
 # Lowest first: a package may import only from packages before it (or itself).
 LAYERS: list[set[str]] = [
+    {"yamlfile"},  # YAML input files with file:line errors: scenario files and robot cards
     {"robots"},
     {"scenario"},
     {"dynamics"},

@@ -122,6 +122,12 @@ CASES = {
         "layout_yaw",
         "expected degrees (got 'left')",
     ),
+    "infinite_layout_yaw": (  # found by the fuzzing of test_scenario_fuzz.py (cos(inf) raised)
+        GOOD + "sweep:\n  layout_yaw: [0, .inf]\n",
+        6,
+        "layout_yaw",
+        "expected degrees (got inf)",
+    ),
     "unknown_pinned_strategy": (
         GOOD + "pre_impact: [none, flail]\n",
         5,

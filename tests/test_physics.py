@@ -10,9 +10,9 @@ import pytest
 
 from fallbench.analysis.metrics import compute_metrics
 from fallbench.registry import simulate_named
+from fallbench.results.robot_check import stance_scenario, stand, touching_pairs
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.scenario import Scenario
-from fallbench.sim.events import tilt_deg
 from fallbench.sim.world import build_world, initial_state
 
 
@@ -44,24 +44,14 @@ def test_standing_robot_reads_gravity_and_its_weight(robot: str) -> None:
 
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_robot_stands_still_for_2_s_under_stiff(robot: str) -> None:
-    """In its `default` stance, no self-collision at start, the default gains hold the robot."""
-    scenario = Scenario(name="stand", duration=2.0, robot=robot)
-    world = build_world(scenario)
-    data = initial_state(world, scenario)
-    mujoco.mj_collision(world.model, data)
-    bodies = [
-        (world.model.geom_bodyid[c.geom1], world.model.geom_bodyid[c.geom2])
-        for c in data.contact[: data.ncon]
-    ]
-    assert all(0 in pair for pair in bodies), "robot parts touch each other in the default stance"
-    rec = simulate_named(scenario, "stiff")
-    assert rec.status == "ok" and rec.fall_time is None
-    assert np.linalg.norm(rec.qpos[-1, :2] - rec.qpos[0, :2]) < 0.05  # m of base drift
-    assert abs(rec.qpos[-1, 2] - get_robot(robot).standing_height) < 0.01  # m: the declared length scale
-    assert np.abs(rec.qvel[-200:]).max() < 0.2  # rad/s and m/s over the last 0.2 s: at rest
-    rotation = np.zeros(9)
-    mujoco.mju_quat2Mat(rotation, rec.qpos[-1, 3:7])
-    assert tilt_deg(rotation.reshape(3, 3)) < 5.0  # deg (TALOS settles 3 deg forward)
+    """In its `default` stance, no self-collision at start, the default gains hold the robot at its
+    card's standing height (the checks of `fallbench robots check`)."""
+    scenario = stance_scenario(robot)
+    assert touching_pairs(build_world(scenario), scenario) == []
+    standing = stand(robot)
+    assert standing.duration == pytest.approx(2.0, abs=scenario.physics_dt)
+    assert standing.problems(get_robot(robot).standing_height) == []
+    assert 0 < standing.sag < 0.01  # m: the stance settles into the servos' deflection
 
 
 def test_zero_gains_reach_the_knee_stop_and_stiff_does_not(drop_scenario: Scenario) -> None:

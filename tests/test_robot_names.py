@@ -1,4 +1,5 @@
-"""Nothing outside fallbench/robots/ names a particular robot: its joints, bodies, name or postures.
+"""Nothing outside fallbench/robots/ names a particular robot: its joints, bodies, name or postures;
+and no Python file at all names a robot's joint or body (robots are cards: fallbench/robots/cards/).
 
 Code and string literals are scanned; docstrings and comments may cite where a number was measured."""
 
@@ -24,11 +25,12 @@ def modules(package: Path) -> list[Path]:
 
 
 MODULES = modules(PACKAGE)
+ROBOT_MODULES = sorted((PACKAGE / "robots").rglob("*.py"))
 
 
 @cache
 def _robot_names() -> frozenset[str]:
-    """Every joint and link name of every registered robot's URDF."""
+    """Every joint and link name of every shipped robot's URDF."""
     names: set[str] = set()
     for name in ROBOTS:
         root = ET.fromstring(get_robot(name).urdf_path.read_text())
@@ -69,14 +71,15 @@ def _identifiers(tree: ast.AST) -> list[str]:
     return names
 
 
-def robot_names_in(path: Path) -> list[str]:
+def robot_names_in(path: Path, robot_words: bool = True) -> list[str]:
     """What the module names of a robot: joint and body names in its string literals (split into
-    words), and robot or posture names in its literals and identifiers; docstrings are not read."""
+    words), and (with `robot_words`) robot or posture names in its literals and identifiers;
+    docstrings are not read."""
     tree = ast.parse(path.read_text())
     literals = _strings(tree)
     tokens = {token for literal in literals for token in re.findall(r"[A-Za-z0-9_]+", literal)}
     found = sorted(tokens & _robot_names())
-    for word in [*ROBOTS, "half_sitting", "half-sitting"]:
+    for word in [*ROBOTS, "half_sitting", "half-sitting"] if robot_words else []:
         if any(
             re.search(rf"(^|[^a-z0-9]){re.escape(word)}([^a-z0-9]|$)", text, re.IGNORECASE)
             for text in literals + _identifiers(tree)
@@ -112,3 +115,11 @@ def test_the_scan_sees_every_module_and_would_catch_a_name(tmp_path: Path) -> No
 @pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_module_names_no_robot(path: Path) -> None:
     assert robot_names_in(path) == [], f"{path.name} names a robot; add a field to the robot description"
+
+
+@pytest.mark.parametrize("path", ROBOT_MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_robot_layer_names_no_joint_or_body(path: Path) -> None:
+    """The robot layer reads cards: a joint or body name belongs in a card, not in Python."""
+    assert robot_names_in(path, robot_words=False) == [], (
+        f"{path.name} names a joint or body; put it in a card"
+    )

@@ -46,6 +46,9 @@ class Strategy(ABC):
     # (`detection.act_on`; docs/detection.md#false-alarms); None: the scenario's
     # `detection.capture_point_margin`, which declares the fall.
     start_margin: float | None = None
+    # Parts of the robot description it cannot work without (RobotDescription field names): a robot
+    # whose card leaves one out is refused when scenarios load, before any run.
+    robot_needs: tuple[str, ...] = ()
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         self.params = resolved_params(

@@ -91,6 +91,7 @@ def _versions(robot: str) -> tuple[tuple[str, str], ...]:
         ("numpy", version("numpy")),
         ("scipy", version("scipy")),
         ("robot", get_robot(robot).version),
+        ("robot_card", get_robot(robot).fingerprint),  # the card and its model files
     )
 
 

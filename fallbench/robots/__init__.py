@@ -1,22 +1,50 @@
-"""Robot registry: a new robot is a new entry here, not a fork of the simulator code."""
+"""Robots: each is a card (a YAML file, fallbench/robots/card.py) and the URDF it points at.
+
+The shipped robots are the cards in `fallbench/robots/cards/`, by file name; a scenario's `robot`
+is one of those names or the path of a user's card (`robot: my_robot/card.yaml`).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
 from functools import cache
+from pathlib import Path
 
+from fallbench.robots.card import load_card
 from fallbench.robots.description import RobotDescription
-from fallbench.robots.g1 import g1
-from fallbench.robots.talos import talos
 
-ROBOTS: dict[str, Callable[[], RobotDescription]] = {"talos": talos, "g1": g1}
+CARDS = Path(__file__).parent / "cards"
+ROBOTS: dict[str, Path] = {path.stem: path for path in sorted(CARDS.glob("*.yaml"))}  # shipped, by name
 DEFAULT_ROBOT = "talos"  # what a scenario without a `robot` key runs on
+CARD_SUFFIXES = (".yaml", ".yml")
+
+
+def is_card_path(robot: str) -> bool:
+    """Whether a scenario's `robot` names a card file rather than a shipped robot."""
+    return robot.endswith(CARD_SUFFIXES)
+
+
+def resolve_robot(robot: str, folder: Path) -> str:
+    """A scenario's `robot` as runs carry it: a shipped name as is, a card's path made absolute
+    from `folder` (the scenario file's)."""
+    return os.path.abspath(folder / robot) if is_card_path(robot) else robot  # no file system call
+
+
+def robot_problem(robot: str) -> str | None:
+    """Why `robot` names no robot (an unknown name, a missing card file), else None."""
+    if is_card_path(robot):
+        return None if Path(robot).is_file() else f"no robot card at {robot}"
+    if robot not in ROBOTS:
+        return f"unknown robot {robot!r} (known: {', '.join(ROBOTS)}, or a card file *.yaml)"
+    return None
 
 
 @cache
-def get_robot(name: str) -> RobotDescription:
-    try:
-        factory = ROBOTS[name]
-    except KeyError:
-        raise KeyError(f"unknown robot {name!r}; known: {', '.join(sorted(ROBOTS))}") from None
-    return factory()
+def get_robot(robot: str) -> RobotDescription:
+    """The robot of a shipped name or a card path; KeyError for an unknown name, InputError
+    (file:line: key: reason) for a bad card."""
+    if robot in ROBOTS:
+        return load_card(ROBOTS[robot])
+    if is_card_path(robot):
+        return load_card(Path(robot))
+    raise KeyError(f"unknown robot {robot!r}; known: {', '.join(ROBOTS)}")

@@ -1,7 +1,8 @@
 """What fallbench needs to know about a robot, independent of the simulator.
 
-Everything robot-specific the rest of the code uses is a field here: no module outside
-`fallbench/robots/` names a joint or body of a particular robot (tests/test_robot_names.py).
+Everything robot-specific the rest of the code uses is a field here, filled from the robot's card
+(fallbench/robots/card.py): no Python file names a joint or body of a particular robot
+(tests/test_robot_names.py).
 """
 
 from __future__ import annotations
@@ -42,7 +43,10 @@ class Arm:
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """A robot: its URDF (and SRDF), named postures, default gains and the bodies metrics talk about."""
+    """A robot: its URDF (and SRDF), named postures, default gains and the bodies metrics talk about.
+
+    A part the card leaves out is empty (`arms`, `feet`, `learned_gain_groups`): the methods that
+    need it say so before any run (`missing`)."""
 
     name: str
     urdf_path: Path
@@ -55,7 +59,7 @@ class RobotDescription:
     gain_groups: tuple[GainGroup, ...]
     body_groups: dict[str, tuple[str, ...]]  # metric group -> bodies (feet, knees, hands, arms, torso, head)
     legs: dict[str, tuple[str, ...]]  # "left"/"right" -> joints from the hip to the ankle
-    arms: dict[str, Arm]  # "left"/"right" -> names
+    arms: dict[str, Arm]  # "left"/"right" -> names; empty for a robot without arms
     leg_pitch_joints: dict[str, tuple[str, str]]  # "hip"/"knee"/"ankle" -> (left, right) pitch joints
     timeseries_joints: tuple[str, ...]  # joints whose angle and torque every run stores
     trajectory_joints: dict[str, str]  # joint -> label, drawn in the reshaped-fall figure
@@ -64,6 +68,8 @@ class RobotDescription:
     ]  # part a hit on counts as damage (SafeFall's vulnerable parts) -> its bodies
     torque_chains: dict[str, str]  # chain name -> regex of its joints, for per-chain torque peaks
     srdf_path: Path | None = None
+    card_path: Path | None = None  # the card this description was read from
+    fingerprint: str = ""  # hash of the card and the model files, part of every run's identity
     armature: dict[str, float] = field(default_factory=dict)  # joint -> kg m^2 reflected rotor inertia
     postures: dict[str, dict[str, float]] = field(default_factory=dict)  # must hold `default`
     posture_base_height: dict[str, float] = field(
@@ -78,6 +84,10 @@ class RobotDescription:
     # PD gains of the servo under a learned whole-fall policy (`onnx`): a compliant servo of the
     # kind learned policies are trained and deployed with, not the stiff default
     learned_gain_groups: tuple[GainGroup, ...] = ()
+
+    def missing(self, fields: tuple[str, ...]) -> str | None:
+        """The first of `fields` (names of this class's fields) that the robot leaves empty, else None."""
+        return next((name for name in fields if not getattr(self, name)), None)
 
     @property
     def vulnerable_bodies(self) -> tuple[str, ...]:

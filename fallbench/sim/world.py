@@ -10,7 +10,7 @@ parameters (stated defaults), applied to every robot, floor and obstacle geom al
   (0.9, 0.95, 0.001); condim 3 with the scenario's friction;
 - joint limits (mechanical stops): solreflimit (0.005 s, 1.0), a 5 ms stop, so that a joint
   driven into its stop is stopped within a few milliseconds as by a hard end stop;
-- self-collisions on, except the pairs the robot's SRDF disables and parent-child pairs;
+- self-collisions on, except the pairs the robot's card (or its SRDF) disables and parent-child pairs;
 - MuJoCo's automatic reset on divergence is disabled, so a diverged run is seen and stored.
 """
 
@@ -28,7 +28,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from fallbench.robots import ROBOTS, get_robot
+from fallbench.robots import get_robot, robot_problem
 from fallbench.robots.description import RobotDescription
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scenario
 
@@ -150,7 +150,7 @@ def _set_options(spec: mujoco.MjSpec, scenario: Scenario) -> None:
 
 def _set_robot_contacts(spec: mujoco.MjSpec, robot: RobotDescription, scenario: Scenario) -> None:
     """Every robot geom collides with the scene and the robot, with the scenario's contact softness,
-    except the body pairs the robot's SRDF disables."""
+    except the body pairs the robot's card (or its SRDF) disables."""
     for geom in spec.geoms:
         geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
         geom.condim = 3
@@ -309,7 +309,7 @@ def _model_cache_file(scenario: Scenario) -> Path:
         _world_key(scenario).encode()
         + mujoco.__version__.encode()
         + robot.version.encode()
-        + robot.urdf_path.read_bytes()
+        + robot.fingerprint.encode()
         + _builder_source()
     )
     root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench"
@@ -338,8 +338,8 @@ def compile_model(scenario: Scenario) -> mujoco.MjModel:
     before (MuJoCo's binary format: loading takes 10-40 ms where compiling takes 70 ms for TALOS,
     450 ms for G1), so every worker and every command does not compile the robot again. The key
     holds everything that builds the model but the run-time keys (`RUNTIME_KEYS`, set after
-    loading): the world key, MuJoCo's and the description's versions, the URDF and the source of
-    this module and of the robot layer."""
+    loading): the world key, MuJoCo's and the description's versions, the robot's card and model
+    files (its fingerprint) and the source of this module and of the robot layer."""
     template = scenario.model_copy(update=RUNTIME_KEYS)
     path = _model_cache_file(template)
     if path not in _TEMPLATES:
@@ -464,8 +464,9 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
 
 def check_scene(scenario: Scenario) -> tuple[str, str] | None:
     """(key, reason) of the first problem that needs the robot or the scene to see, else None."""
-    if scenario.robot not in ROBOTS:
-        return "robot", f"unknown robot {scenario.robot!r} (known: {', '.join(sorted(ROBOTS))})"
+    problem = robot_problem(scenario.robot)
+    if problem:
+        return "robot", problem
     robot = get_robot(scenario.robot)
     if scenario.initial.posture not in robot.postures:
         return (

@@ -75,6 +75,7 @@ def _yaw_only(rotation: np.ndarray) -> np.ndarray:
 class DirectionStrategy(Strategy):
     name = "direction"
     defaults = DIRECTION_PARAMS
+    robot_needs = ("feet",)  # the soles it steps and lifts
     choices = {
         "mode": MODES,
         "selection": SELECTIONS,

@@ -33,6 +33,7 @@ class LearnedStrategy(Strategy):
 
     hands_over = False
     defaults = LEARNED_DEFAULTS
+    robot_needs = ("learned_gain_groups",)  # the servo the policy was trained with
     choices = {"observation": (OBSERVATION_VERSION,)}
 
     def __init__(self, world: World, scenario: Scenario) -> None:

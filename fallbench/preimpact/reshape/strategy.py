@@ -21,6 +21,7 @@ class ReshapeStrategy(Strategy):
     defaults = RESHAPE_PARAMS
     per_chain_switching = True
     choices = {"pivot": PIVOTS, "solver": QP_SOLVERS}
+    robot_needs = ("arms",)  # the hands it places on the floor
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)

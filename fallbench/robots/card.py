@@ -1,0 +1,393 @@
+"""Robot cards: a robot as a YAML file and its URDF, with no Python.
+
+A card names the model files (a URDF, optionally an SRDF) and declares what the model does not
+say: which bodies are the root, the torso and the IMU, which bodies count as feet, knees, hands
+..., the leg and arm chains, the default gains, the nominal stance and its standing height.
+`load_card` checks the card against the URDF (every named body and joint exists, every pattern
+matches, every actuated joint has gains) and builds the `RobotDescription` the rest of fallbench
+reads. What the files give is derived: the mass and the joint limits from the URDF; named
+postures (and the root height in them), disabled collision pairs and rotor inertias from the SRDF.
+The format, key by key: docs/robots.md.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError, distribution, version
+from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import Field, ValidationError, field_validator
+from ruamel.yaml.comments import CommentedMap
+
+from fallbench.robots.description import (
+    DEFAULT_POSTURE,
+    SIDES,
+    Arm,
+    GainGroup,
+    RobotDescription,
+    read_srdf_armature,
+    read_srdf_disabled_collisions,
+    read_srdf_postures,
+)
+from fallbench.yamlfile import InputError, Strict, line_of, plain, read_yaml, validation_error
+
+CARD_SCHEMA_VERSION = 1  # of the card format; a card states the version it is written for
+KIND = "robot card"  # how messages name the file
+ACTUATED = ("revolute", "continuous")  # URDF joint types that get a servo (MuJoCo hinges)
+# RobotDescription fields whose card key has another name
+CARD_KEYS = {"gain_groups": "gains", "learned_gain_groups": "learned_gains"}
+
+Name = Annotated[str, Field(min_length=1, max_length=200)]
+Names = tuple[Name, ...]
+Radians = Annotated[float, Field(ge=-6.3, le=6.3)]
+Axis = tuple[float, float, float]
+
+
+class ModelFiles(Strict):
+    """Where the robot's model files are."""
+
+    urdf: Name  # path relative to `root`
+    srdf: Name | None = None  # optional: postures (group states), disabled collisions, rotor parameters
+    package: Name | None = None  # installed Python distribution holding the files; default: the card's folder
+    root: Name = "."  # folder inside `package` (or the card's folder) that the paths are relative to
+    package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root`
+
+
+class Gains(Strict):
+    kp: Annotated[float, Field(gt=0, le=1e6)]  # Nm/rad
+    kd: Annotated[float, Field(ge=0, le=1e6)]  # Nms/rad
+
+
+class Pair(Strict):
+    left: Name
+    right: Name
+
+
+class Legs(Strict):
+    left: Annotated[Names, Field(min_length=1)]  # joints from the hip to the ankle
+    right: Annotated[Names, Field(min_length=1)]
+
+
+class ArmNames(Strict):
+    shoulder_joint: Name  # first arm joint: its origin is the shoulder
+    elbow_joint: Name
+    wrist_joint: Name  # its origin is the wrist point the landing tasks place
+    wrist_frame: Name  # body carrying the wrist point
+    wrist_pitch_joint: Name  # bent to pull the hand up, so that the wrist lands first
+    hand_frame: Name  # a body of the hand
+
+
+class Arms(Strict):
+    left: ArmNames
+    right: ArmNames
+
+
+class LegPitch(Strict):
+    hip: Pair
+    knee: Pair
+    ankle: Pair
+
+
+class BodyGroups(Strict):
+    """Metric group -> bodies, each a link name or a regular expression over the link names."""
+
+    feet: Annotated[Names, Field(min_length=1)]
+    knees: Names = ()
+    hands: Names = ()
+    arms: Names = ()
+    torso: Names = ()
+    head: Names = ()
+
+
+class TorsoAxes(Strict):
+    """The robot's directions in the torso body's frame."""
+
+    forward: Axis = (1.0, 0.0, 0.0)
+    left: Axis = (0.0, 1.0, 0.0)
+    up: Axis = (0.0, 0.0, 1.0)
+
+
+class RobotCard(Strict):
+    schema_version: int
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]{1,64}$")]  # also in file names of caches
+    model: ModelFiles
+    root_body: Name  # the floating base
+    torso_body: Name  # whose tilt detects falls; pushed by default
+    imu_body: Name  # the accelerometer sits at its origin, axes aligned with it
+    standing_height: Annotated[float, Field(gt=0, le=10)]  # m, root height standing in `default`
+    default_posture: Name | None = None  # the posture that is `default` (the nominal stance), by name
+    postures: dict[Name, dict[Name, Radians]] = {}  # name -> joint -> rad (the SRDF's are added)
+    gains: Annotated[dict[Name, Gains], Field(min_length=1)]  # joint regex -> stiff PD gains, first match
+    learned_gains: dict[Name, Gains] = {}  # joint regex -> servo gains under a learned policy
+    armature: dict[Name, Annotated[float, Field(ge=0, le=100)]] = {}  # joint or regex -> kg m^2
+    disabled_collisions: tuple[tuple[Name, Name], ...] = ()  # body pairs never in contact
+    body_groups: BodyGroups
+    legs: Legs
+    leg_pitch_joints: LegPitch
+    arms: Arms | None = None
+    feet: Pair | None = None  # the bodies carrying the soles
+    timeseries_joints: Names = ()  # joints whose angle and torque every run stores
+    trajectory_joints: dict[Name, Name] = {}  # joint -> label in the reshaped-fall figure
+    vulnerable_parts: dict[Name, Names] = {}  # part -> bodies (names or regexes) a hit on damages
+    torque_chains: dict[Name, Name] = {}  # chain -> joint regex, for per-chain torque peaks
+    torso_axes: TorsoAxes = TorsoAxes()
+
+    @field_validator("schema_version")
+    @classmethod
+    def _known_version(cls, value: int) -> int:
+        if value != CARD_SCHEMA_VERSION:
+            raise ValueError(f"this fallbench reads robot cards of schema version {CARD_SCHEMA_VERSION}")
+        return value
+
+
+@dataclass(frozen=True)
+class Urdf:
+    """The names a card may use: the URDF's links, and its joints with their types, in file order."""
+
+    links: tuple[str, ...]
+    joints: dict[str, str]  # name -> type
+
+    @property
+    def actuated(self) -> tuple[str, ...]:
+        return tuple(name for name, kind in self.joints.items() if kind in ACTUATED)
+
+
+def card_key(field: str) -> str:
+    """The card key that fills a RobotDescription field."""
+    return CARD_KEYS.get(field, field)
+
+
+def read_urdf(path: Path) -> Urdf:
+    """Link and joint names of a URDF file (ET.ParseError on malformed XML)."""
+    root = ET.parse(path).getroot()
+    links = tuple(link.attrib["name"] for link in root.findall("link"))
+    joints = {joint.attrib["name"]: joint.attrib.get("type", "") for joint in root.findall("joint")}
+    return Urdf(links, joints)
+
+
+def load_card(path: Path) -> RobotDescription:
+    """The robot of a card file; InputError (file, line, key, reason) on any problem."""
+    docs = read_yaml(path, KIND)
+    if len(docs) > 1:
+        raise InputError(path, docs[1].lc.line + 1, "", "a robot card holds one YAML document")
+    doc = docs[0]
+    try:
+        card = RobotCard.model_validate(plain(doc))
+    except ValidationError as exc:
+        raise validation_error(path, doc, exc) from None
+    return CardReader(path, doc, card).description()
+
+
+class CardReader:
+    """A validated card checked against its URDF, one problem at a time, each at its line."""
+
+    def __init__(self, path: Path, doc: CommentedMap, card: RobotCard) -> None:
+        self.path, self.doc, self.card = path, doc, card
+        self.root, self.version = self._model_root()
+        self.urdf_path = self._file("urdf", card.model.urdf)
+        self.srdf_path = self._file("srdf", card.model.srdf) if card.model.srdf else None
+        try:
+            self.urdf = read_urdf(self.urdf_path)
+        except ET.ParseError as exc:
+            raise self.error(("model", "urdf"), f"not a readable URDF ({exc})") from None
+
+    def error(self, loc: tuple[Any, ...], reason: str) -> InputError:
+        """The problem at `loc` (keys and list indices), at its line in the card."""
+        return InputError(self.path, line_of(self.doc, loc), ".".join(map(str, loc)), reason)
+
+    def _model_root(self) -> tuple[Path, str]:
+        """The folder the model paths are relative to, and the version of the package holding it."""
+        model = self.card.model
+        if model.package is None:
+            return (self.path.parent / model.root).resolve(), "local files"
+        try:
+            found = distribution(model.package)
+        except PackageNotFoundError:
+            raise self.error(("model", "package"), f"no installed package {model.package!r}") from None
+        return Path(str(found.locate_file(model.root))), f"{model.package} {version(model.package)}"
+
+    def _file(self, key: str, relative: str) -> Path:
+        path = self.root / relative
+        if not path.is_file():
+            raise self.error(("model", key), f"no file {path}")
+        return path
+
+    def names(self, loc: tuple[Any, ...], names: tuple[str, ...], known: tuple[str, ...], what: str) -> None:
+        """Every name of `names` is one of `known` (the URDF's links or joints)."""
+        for index, name in enumerate(names):
+            if name not in known:
+                where = loc + (index,) if len(names) > 1 else loc
+                raise self.error(where, f"no {what} {name!r} in {self.urdf_path.name}")
+
+    def matches(
+        self, loc: tuple[Any, ...], pattern: str, known: tuple[str, ...], what: str
+    ) -> tuple[str, ...]:
+        """`known` names that `pattern` (a name or a regular expression) matches whole, in file order."""
+        if pattern in known:
+            return (pattern,)
+        try:
+            found = tuple(name for name in known if re.fullmatch(pattern, name))
+        except re.error as exc:
+            raise self.error(
+                loc, f"{pattern!r} is neither a {what} nor a regular expression ({exc})"
+            ) from None
+        if not found:
+            raise self.error(loc, f"{pattern!r} matches no {what} of {self.urdf_path.name}")
+        return found
+
+    def bodies(self, loc: tuple[Any, ...], entries: tuple[str, ...]) -> tuple[str, ...]:
+        """The links that a list of names and regexes gives, in the list's order."""
+        found = (self.matches(loc + (i,), entry, self.urdf.links, "body") for i, entry in enumerate(entries))
+        return tuple(dict.fromkeys(body for bodies in found for body in bodies))
+
+    def description(self) -> RobotDescription:
+        """The robot description the card gives, every name checked and every pattern expanded."""
+        card = self.card
+        self._check_bodies()
+        self._check_joints()
+        body_groups = {
+            group: self.bodies(("body_groups", group), getattr(card.body_groups, group))
+            for group in BodyGroups.model_fields
+        }
+        postures, heights = self._postures()
+        return RobotDescription(
+            name=card.name,
+            urdf_path=self.urdf_path,
+            srdf_path=self.srdf_path,
+            mesh_root=self.root,
+            package_prefix=card.model.package_uri,
+            version=self.version,
+            fingerprint=self._fingerprint(),
+            card_path=self.path,
+            root_body=card.root_body,
+            torso_body=card.torso_body,
+            imu_body=card.imu_body,
+            gain_groups=self._gains("gains", card.gains),
+            learned_gain_groups=self._gains("learned_gains", card.learned_gains),
+            body_groups=body_groups,
+            legs={side: getattr(card.legs, side) for side in SIDES},
+            arms={} if card.arms is None else {side: Arm(**dict(getattr(card.arms, side))) for side in SIDES},
+            leg_pitch_joints={
+                part: (getattr(card.leg_pitch_joints, part).left, getattr(card.leg_pitch_joints, part).right)
+                for part in LegPitch.model_fields
+            },
+            feet={} if card.feet is None else {side: getattr(card.feet, side) for side in SIDES},
+            timeseries_joints=card.timeseries_joints,
+            trajectory_joints=card.trajectory_joints,
+            vulnerable_parts=self._vulnerable_parts(body_groups),
+            torque_chains=self._torque_chains(),
+            armature=self._armature(),
+            postures=postures,
+            posture_base_height=heights,
+            disabled_collisions=self._disabled_collisions(),
+            torso_axes=(card.torso_axes.forward, card.torso_axes.left, card.torso_axes.up),
+        )
+
+    def _check_bodies(self) -> None:
+        card, links = self.card, self.urdf.links
+        for key in ("root_body", "torso_body", "imu_body"):
+            self.names((key,), (getattr(card, key),), links, "body")
+        for side in SIDES:
+            if card.feet is not None:
+                self.names(("feet", side), (getattr(card.feet, side),), links, "body")
+            if card.arms is not None:
+                arm = getattr(card.arms, side)
+                for key in ("wrist_frame", "hand_frame"):
+                    self.names(("arms", side, key), (getattr(arm, key),), links, "body")
+        for index, pair in enumerate(card.disabled_collisions):
+            self.names(("disabled_collisions", index), pair, links, "body")
+
+    def _check_joints(self) -> None:
+        card, joints = self.card, self.urdf.actuated
+        for side in SIDES:
+            self.names(("legs", side), getattr(card.legs, side), joints, "actuated joint")
+            if card.arms is not None:
+                arm = getattr(card.arms, side)
+                for key in ("shoulder_joint", "elbow_joint", "wrist_joint", "wrist_pitch_joint"):
+                    self.names(("arms", side, key), (getattr(arm, key),), joints, "actuated joint")
+        for part in LegPitch.model_fields:
+            pair = getattr(card.leg_pitch_joints, part)
+            for side in SIDES:
+                self.names(("leg_pitch_joints", part, side), (getattr(pair, side),), joints, "actuated joint")
+        self.names(("timeseries_joints",), card.timeseries_joints, joints, "actuated joint")
+        drawn = [*card.trajectory_joints, card.leg_pitch_joints.hip.right, card.leg_pitch_joints.knee.right]
+        drawn.append(card.leg_pitch_joints.ankle.right)
+        missing = [joint for joint in drawn if joint not in card.timeseries_joints]
+        if missing:
+            raise self.error(
+                ("timeseries_joints",),
+                f"misses {', '.join(missing)}: the trajectory joints and the right leg's pitch joints "
+                "are drawn from the stored series",
+            )
+
+    def _gains(self, key: str, gains: dict[str, Gains]) -> tuple[GainGroup, ...]:
+        """Gain groups in the card's order; when any are given, every actuated joint must match one."""
+        groups = tuple(GainGroup(pattern, pd.kp, pd.kd) for pattern, pd in gains.items())
+        for pattern in gains:
+            self.matches((key, pattern), pattern, self.urdf.actuated, "actuated joint")
+        for joint in self.urdf.actuated if groups else ():
+            if not any(re.fullmatch(group.pattern, joint) for group in groups):
+                raise self.error((key,), f"joint {joint!r} matches none of the patterns")
+        return groups
+
+    def _vulnerable_parts(self, body_groups: dict[str, tuple[str, ...]]) -> dict[str, tuple[str, ...]]:
+        """Part -> bodies; each body must be in a body group (those alone have contact sensors)."""
+        sensed = {body for bodies in body_groups.values() for body in bodies}
+        parts = {}
+        for part, entries in self.card.vulnerable_parts.items():
+            parts[part] = self.bodies(("vulnerable_parts", part), entries)
+            outside = [body for body in parts[part] if body not in sensed]
+            if outside:
+                raise self.error(("vulnerable_parts", part), f"{', '.join(outside)} in no body group")
+        return parts
+
+    def _torque_chains(self) -> dict[str, str]:
+        for chain, pattern in self.card.torque_chains.items():
+            self.matches(("torque_chains", chain), pattern, self.urdf.actuated, "actuated joint")
+        return dict(self.card.torque_chains)
+
+    def _armature(self) -> dict[str, float]:
+        """Joint -> kg m^2: the SRDF's rotor parameters, then the card's entries over them."""
+        armature = read_srdf_armature(self.srdf_path) if self.srdf_path else {}
+        for key, value in self.card.armature.items():
+            for joint in self.matches(("armature", key), key, self.urdf.actuated, "actuated joint"):
+                armature[joint] = value
+        return armature
+
+    def _postures(self) -> tuple[dict[str, dict[str, float]], dict[str, float]]:
+        """Named postures (the SRDF's group states, then the card's) with `default`, and the root
+        height standing in them (m): the SRDF's where it gives one, `standing_height` for `default`."""
+        postures, heights = read_srdf_postures(self.srdf_path) if self.srdf_path else ({}, {})
+        for name, joints in self.card.postures.items():
+            for joint in joints:
+                self.names(("postures", name, joint), (joint,), self.urdf.actuated, "actuated joint")
+            postures[name] = dict(joints)
+        chosen = self.card.default_posture
+        if chosen is not None:
+            if chosen not in postures:
+                raise self.error(
+                    ("default_posture",), f"no posture {chosen!r} (known: {', '.join(postures)})"
+                )
+            postures[DEFAULT_POSTURE] = postures[chosen]
+        if DEFAULT_POSTURE not in postures:
+            raise self.error(
+                ("postures",), f"no posture {DEFAULT_POSTURE!r} (the nominal stance) nor `default_posture`"
+            )
+        heights[DEFAULT_POSTURE] = self.card.standing_height
+        return postures, heights
+
+    def _disabled_collisions(self) -> tuple[tuple[str, str], ...]:
+        """The SRDF's disabled pairs, then the card's."""
+        srdf = read_srdf_disabled_collisions(self.srdf_path) if self.srdf_path else ()
+        return srdf + self.card.disabled_collisions
+
+    def _fingerprint(self) -> str:
+        """Hash of the card and the model files: part of every run's identity."""
+        digest = hashlib.sha256(self.path.read_bytes() + self.urdf_path.read_bytes())
+        if self.srdf_path is not None:
+            digest.update(self.srdf_path.read_bytes())
+        return digest.hexdigest()[:16]
