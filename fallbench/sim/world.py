@@ -30,6 +30,7 @@ import numpy as np
 
 from fallbench.robots import get_robot, robot_problem
 from fallbench.robots.description import RobotDescription
+from fallbench.robots.meshes import mujoco_urdf_text
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scenario
 
 IMPEDANCE_SHAPE = (0.5, 2.0)  # solimp midpoint and power: MuJoCo's defaults
@@ -77,7 +78,7 @@ class World:
 def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
     import xml.etree.ElementTree as ET
 
-    tree = ET.fromstring(robot.urdf_text())
+    tree = ET.fromstring(mujoco_urdf_text(robot))  # COLLADA meshes as STL
     for tag in ("gazebo", "transmission"):
         for element in tree.findall(tag):
             tree.remove(element)
