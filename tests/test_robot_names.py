@@ -28,14 +28,19 @@ MODULES = modules(PACKAGE)
 ROBOT_MODULES = sorted((PACKAGE / "robots").rglob("*.py"))
 
 
+# Link and joint names that are also fallbench's own words (Romeo's pelvis is `body`, its upper body
+# `torso`, the joint between them `waist`): a literal "torso" is the body group, not Romeo's link
+COMMON_WORDS = {"body", "torso", "waist"}
+
+
 @cache
 def _robot_names() -> frozenset[str]:
-    """Every joint and link name of every shipped robot's URDF."""
+    """Every joint and link name of every shipped robot's URDF, but common words."""
     names: set[str] = set()
     for name in ROBOTS:
         root = ET.fromstring(get_robot(name).urdf_path.read_text())
         names |= {e.attrib["name"] for tag in ("joint", "link") for e in root.findall(tag)}
-    return frozenset(names)
+    return frozenset(names - COMMON_WORDS)
 
 
 def _docstrings(tree: ast.AST) -> set[int]:

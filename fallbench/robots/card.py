@@ -20,15 +20,18 @@ from importlib.metadata import PackageNotFoundError, distribution, version
 from pathlib import Path
 from typing import Annotated, Any
 
+import numpy as np
 from pydantic import Field, ValidationError, field_validator
 from ruamel.yaml.comments import CommentedMap
 
 from fallbench.robots.description import (
     DEFAULT_POSTURE,
+    INERTIA_KEYS,
     SIDES,
     Arm,
     GainGroup,
     RobotDescription,
+    link_block,
     read_srdf_armature,
     read_srdf_disabled_collisions,
     read_srdf_postures,
@@ -55,6 +58,17 @@ class ModelFiles(Strict):
     package: Name | None = None  # installed Python distribution holding the files; default: the card's folder
     root: Name = "."  # folder inside `package` (or the card's folder) that the paths are relative to
     package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root`
+
+
+class Inertia(Strict):
+    """A link's inertia tensor about its centre of mass, kg m^2, in the URDF's <inertia> terms."""
+
+    ixx: float
+    ixy: float
+    ixz: float
+    iyy: float
+    iyz: float
+    izz: float
 
 
 class Gains(Strict):
@@ -125,6 +139,7 @@ class RobotCard(Strict):
     learned_gains: dict[Name, Gains] = {}  # joint regex -> servo gains under a learned policy
     armature: dict[Name, Annotated[float, Field(ge=0, le=100)]] = {}  # joint or regex -> kg m^2
     disabled_collisions: tuple[tuple[Name, Name], ...] = ()  # body pairs never in contact
+    inertia_overrides: dict[Name, Inertia] = {}  # link -> tensor replacing the URDF's (a fix to its data)
     body_groups: BodyGroups
     legs: Legs
     leg_pitch_joints: LegPitch
@@ -284,6 +299,7 @@ class CardReader:
             postures=postures,
             posture_base_height=heights,
             disabled_collisions=self._disabled_collisions(),
+            inertia_overrides=self._inertia_overrides(),
             torso_axes=(card.torso_axes.forward, card.torso_axes.left, card.torso_axes.up),
         )
 
@@ -362,6 +378,12 @@ class CardReader:
         """Named postures (the SRDF's group states, then the card's) with `default`, and the root
         height standing in them (m): the SRDF's where it gives one, `standing_height` for `default`."""
         postures, heights = read_srdf_postures(self.srdf_path) if self.srdf_path else ({}, {})
+        # An SRDF is often shared by a full model and a reduced one (fingers, toes, eyes left out):
+        # its group states' joints that the URDF lacks are dropped
+        actuated = set(self.urdf.actuated)
+        postures = {
+            name: {j: v for j, v in joints.items() if j in actuated} for name, joints in postures.items()
+        }
         for name, joints in self.card.postures.items():
             for joint in joints:
                 self.names(("postures", name, joint), (joint,), self.urdf.actuated, "actuated joint")
@@ -379,6 +401,25 @@ class CardReader:
             )
         heights[DEFAULT_POSTURE] = self.card.standing_height
         return postures, heights
+
+    def _inertia_overrides(self) -> dict[str, tuple[float, ...]]:
+        """Link -> tensor; each link has an <inertia> to replace, each tensor is a physical one
+        (positive principal moments that satisfy the triangle inequality)."""
+        overrides = {}
+        text = self.urdf_path.read_text()
+        for link, inertia in self.card.inertia_overrides.items():
+            loc = ("inertia_overrides", link)
+            self.names(loc, (link,), self.urdf.links, "body")
+            block = link_block(text, link)
+            if block is None or "<inertia" not in block.group(0):
+                raise self.error(loc, f"link {link!r} has no <inertia> in {self.urdf_path.name}")
+            tensor = tuple(getattr(inertia, key) for key in INERTIA_KEYS)
+            xx, xy, xz, yy, yz, zz = tensor
+            moments = np.linalg.eigvalsh([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+            if moments[0] <= 0 or moments[0] + moments[1] < moments[2]:
+                raise self.error(loc, f"not a rigid body's inertia (principal moments {moments.round(9)})")
+            overrides[link] = tensor
+        return overrides
 
     def _disabled_collisions(self) -> tuple[tuple[str, str], ...]:
         """The SRDF's disabled pairs, then the card's."""

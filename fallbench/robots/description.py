@@ -84,6 +84,9 @@ class RobotDescription:
     # PD gains of the servo under a learned whole-fall policy (`onnx`): a compliant servo of the
     # kind learned policies are trained and deployed with, not the stiff default
     learned_gain_groups: tuple[GainGroup, ...] = ()
+    # link -> its inertia tensor (ixx, ixy, ixz, iyy, iyz, izz, kg m^2) in place of the URDF's: a fix
+    # both MuJoCo and Pinocchio read, as they both read `urdf_text`
+    inertia_overrides: dict[str, tuple[float, ...]] = field(default_factory=dict)
 
     def missing(self, fields: tuple[str, ...]) -> str | None:
         """The first of `fields` (names of this class's fields) that the robot leaves empty, else None."""
@@ -95,8 +98,11 @@ class RobotDescription:
         return tuple(body for bodies in self.vulnerable_parts.values() for body in bodies)
 
     def urdf_text(self) -> str:
-        """The URDF with package URIs resolved to files on this machine."""
+        """The URDF with package URIs resolved to files on this machine and the card's inertia
+        overrides applied."""
         text = self.urdf_path.read_text()
+        for link, tensor in self.inertia_overrides.items():
+            text = override_inertia(text, link, tensor)
         return re.sub(rf"package:///?{re.escape(self.package_prefix)}", str(self.mesh_root) + "/", text)
 
     def default_gains(self, joint: str) -> tuple[float, float]:
@@ -146,6 +152,27 @@ class RobotDescription:
     def standing_height(self) -> float:
         """m, root height standing in `default`: the robot's length scale."""
         return self.posture_base_height[DEFAULT_POSTURE]
+
+
+INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+
+
+def link_block(text: str, link: str) -> re.Match[str] | None:
+    """The <link> element named `link` in a URDF's text."""
+    return re.search(rf"""<link\s+name=(["']){re.escape(link)}\1[^>]*?(/>|>.*?</link>)""", text, re.S)
+
+
+def override_inertia(text: str, link: str, tensor: tuple[float, ...]) -> str:
+    """`text` with the <inertia> of `link` replaced by `tensor` (INERTIA_KEYS order); every other
+    byte as it was."""
+    block = link_block(text, link)
+    if block is None:
+        raise KeyError(f"no link {link!r} in the URDF")
+    element = "<inertia " + " ".join(f'{k}="{v!r}"' for k, v in zip(INERTIA_KEYS, tensor)) + "/>"
+    new, count = re.subn(r"<inertia\s[^>]*?/>", element, block.group(0), count=1)
+    if not count:
+        raise KeyError(f"link {link!r} has no <inertia> in the URDF")
+    return text[: block.start()] + new + text[block.end() :]
 
 
 def read_srdf_postures(srdf_path: Path) -> tuple[dict[str, dict[str, float]], dict[str, float]]:

@@ -30,6 +30,7 @@ import numpy as np
 
 from fallbench.robots import get_robot, robot_problem
 from fallbench.robots.description import RobotDescription
+from fallbench.robots.meshes import mujoco_urdf_text
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scenario
 
 IMPEDANCE_SHAPE = (0.5, 2.0)  # solimp midpoint and power: MuJoCo's defaults
@@ -77,7 +78,7 @@ class World:
 def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
     import xml.etree.ElementTree as ET
 
-    tree = ET.fromstring(robot.urdf_text())
+    tree = ET.fromstring(mujoco_urdf_text(robot))  # COLLADA meshes as STL
     for tag in ("gazebo", "transmission"):
         for element in tree.findall(tag):
             tree.remove(element)
@@ -410,6 +411,9 @@ def build_world(scenario: Scenario) -> World:
 # ---------------------------------------------------------------- initial state
 
 
+LEVEL_SOLES = 1e-6  # m: soles whose lowest points differ by less are level (float32 mesh vertices)
+
+
 def _lowest_point(model: mujoco.MjModel, data: mujoco.MjData, body_ids: set[int]) -> float:
     """Lowest z of the robot's collision geometry (box corners and mesh vertices)."""
     lowest = math.inf
@@ -453,7 +457,13 @@ def initial_state(world: World, scenario: Scenario) -> mujoco.MjData:
     data.qpos[root_adr : root_adr + 7] = [0, 0, 0, 1, 0, 0, 0]
     mujoco.mj_kinematics(model, data)
     robot_bodies = set(range(1, model.nbody))
-    data.qpos[root_adr + 2] = scenario.initial.height - _lowest_point(model, data, robot_bodies)
+    lowest = _lowest_point(model, data, robot_bodies)
+    # Soles level to within their meshes' rounding all rest on the floor: Romeo's right sole is 1 nm
+    # above its left one, and a start on one foot puts the capture point outside the support at t = 0
+    soles = [_lowest_point(model, data, {model.body(foot).id}) for foot in robot.feet.values()]
+    if soles and 0 < max(soles) - lowest < LEVEL_SOLES:
+        lowest = max(soles)
+    data.qpos[root_adr + 2] = scenario.initial.height - lowest
     data.ctrl[:] = data.qpos[world.qpos_adr]
     mujoco.mj_forward(model, data)
     return data
