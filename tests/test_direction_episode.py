@@ -157,6 +157,13 @@ def _handmade(
     if drop is not None:
         qpos[time >= drop - 1e-9, 2] -= 0.7
     sensordata = np.zeros((steps, world.model.nsensordata))
+    # the CoM sensor reads the recorded states, as MuJoCo computes it inside each physics step
+    data, com = mujoco.MjData(world.model), world.sensors["com_pos"].start
+    for row, state in zip(sensordata, qpos):
+        data.qpos[:] = state
+        mujoco.mj_kinematics(world.model, data)
+        mujoco.mj_comPos(world.model, data)
+        row[com : com + 3] = data.subtree_com[world.root_body]
     if contact is not None:
         first = world.sensors[world.obstacle_sensors[0]].start
         sensordata[(time >= contact[0] - 1e-9) & (time < contact[1] - 1e-9), first] = 1.0

@@ -140,7 +140,13 @@ def group_forces(rec: Recording) -> dict[str, np.ndarray]:
     world = rec.world
     forces = {"total": np.linalg.norm(world.sensor(rec.sensordata, "contact:total")[:, 1:4], axis=1)}
     for group, names in world.contact_groups.items():
-        net = sum(world.sensor(rec.sensordata, name)[:, 1:4] for name in names)
+        # the bodies' force columns gathered once from the wide sensor rows, then summed body after
+        # body in place (reading them body by body took a third of the metrics' time)
+        columns = [world.sensors[name].start + 1 + axis for name in names for axis in range(3)]
+        block = rec.sensordata[:, columns]
+        net = block[:, :3].copy()
+        for first in range(3, len(columns), 3):
+            net += block[:, first : first + 3]
         forces[group] = np.linalg.norm(net, axis=1)
     return forces
 
@@ -255,11 +261,8 @@ def damage_metrics(
         row[f"torque_peak_{chain}"] = (
             float(np.abs(rec.actuator_force[:, joints]).max()) if joints and rec.steps else float("nan")
         )
-    touched = {
-        b
-        for b, c in zip(world.contact_bodies, world.contact_found_columns)
-        if (rec.sensordata[:, c] > 0).any()
-    }
+    found = (rec.sensordata[:, world.contact_found_columns] > 0).any(axis=0)  # per contact body
+    touched = {body for body, touching in zip(world.contact_bodies, found) if touching}
     row["vulnerable_hits"] = sum(
         bool(touched & set(bodies)) for bodies in world.robot.vulnerable_parts.values()
     )

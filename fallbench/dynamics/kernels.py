@@ -5,7 +5,9 @@ build was some 60 of them; these kernels do the same arithmetic in one call each
 defers Numba to the first call: importing it takes ~0.3 s and its code generator ~0.3 s more, which
 only runs that solve a QP need. Kernels are cached next to their source files (`cache=True`), so a
 later process loads rather than compiles them. A kernel calls no other kernel (the deferred ones are
-plain Python functions until their first call).
+plain Python functions until their first call). Kernels copy arrays into slices with element
+loops, never `a[:, :k] = b`: Numba's code for a slice assignment cost ~5 s of compilation per
+process (every sweep worker of a fresh clone compiles; the kernels took 16 CPU-s, now 10).
 """
 
 from __future__ import annotations
@@ -115,17 +117,22 @@ def independent_rows(
     combination whose eigenvalue is below tolerance^2 times the body's largest is dropped (four
     corners of a flat foot give three)."""
     count, nv = jacobian.shape
-    rows = np.empty((count, nv + 1))
-    rows[:, :nv], rows[:, nv] = jacobian, drift
     combined = np.empty((count, nv + 1))
     kept = 0
     for body in range(body_of.max() + 1 if count else 0):
-        block = np.ascontiguousarray(rows[np.nonzero(body_of == body)[0]])
+        members = np.nonzero(body_of == body)[0]
+        block = np.empty((len(members), nv + 1))  # the body's rows (jacobian | drift)
+        for i in range(len(members)):
+            for j in range(nv):
+                block[i, j] = jacobian[members[i], j]
+            block[i, nv] = drift[members[i]]
         block_jacobian = np.ascontiguousarray(block[:, :nv])
         values, vectors = np.linalg.eigh(block_jacobian @ np.ascontiguousarray(block_jacobian.T))
         for k in range(len(values)):
             if values[k] > tolerance**2 * values[-1]:
-                combined[kept] = np.ascontiguousarray(vectors[:, k]) @ block
+                row = np.ascontiguousarray(vectors[:, k]) @ block
+                for j in range(nv + 1):
+                    combined[kept, j] = row[j]
                 kept += 1
     return combined[:kept]
 
@@ -151,13 +158,15 @@ def scaled_problem(
     `equilibrate`: scale chosen so that H's diagonal is one (where it is positive); then ridge |x|^2.
     Returns (H, g, A, C, lower, upper, scale) in x (see `QPBuilder.build`)."""
     nv, n = M.shape
-    H, g = np.zeros((n, n)), np.zeros(n)
     if leading:
-        H[:nv, :nv], g[:nv] = W, r
+        H, g = np.zeros((n, n)), np.zeros(n)
+        for i in range(nv):
+            g[i] = r[i]
+            for j in range(nv):
+                H[i, j] = W[i, j]
     else:
         Mt = np.ascontiguousarray(M.T)
-        H[:, :] = Mt @ (W @ M)
-        g[:] = Mt @ (W @ m + r)
+        H, g = Mt @ (W @ M), Mt @ (W @ m + r)
     scale = scale.copy()
     for j in range(n):
         H[j, j] += regularisation[j]

@@ -163,16 +163,20 @@ def _eliminated_accelerations(
     """M = H^-1 [J'G, S_S' diag(e_S), S_S' diag(e_dot_S)], m = H^-1 (S_NS' tau_NS - C)."""
     nv, n_l, n_s = len(C), force_map.shape[1], len(selected)
     M = np.empty((nv, n_l + 2 * n_s))
-    if n_l:
-        M[:, :n_l] = H_inv @ force_map
+    if n_l:  # element loops, not slice assignments (see kernels)
+        forces = H_inv @ force_map
+        for i in range(nv):
+            for j in range(n_l):
+                M[i, j] = forces[i, j]
     held = np.zeros(nv)  # generalized forces of the non-selected motors' known torques
     for a in range(len(actuated_v)):
         held[actuated_v[a]] = held_torque[a]
     for k in range(n_s):
-        motor, column = actuated_v[selected[k]], H_inv[:, actuated_v[selected[k]]]
+        motor = actuated_v[selected[k]]
         held[motor] = 0.0  # the selected motors' torques are the QP's
-        M[:, n_l + k] = column * e[selected[k]]
-        M[:, n_l + n_s + k] = column * e_dot[selected[k]]
+        for i in range(nv):
+            M[i, n_l + k] = H_inv[i, motor] * e[selected[k]]
+            M[i, n_l + n_s + k] = H_inv[i, motor] * e_dot[selected[k]]
     return M, H_inv @ (held - C)
 
 

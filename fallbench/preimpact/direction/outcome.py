@@ -29,16 +29,11 @@ CLEARANCE_RANGE = 2.0  # m: distances beyond this are reported as this
 
 
 def com_path(rec: Recording, every: int = 1) -> np.ndarray:
-    """(samples, 3) whole-robot CoM, m, world, from the recorded states."""
-    model, world = rec.world.model, rec.world
-    data = mujoco.MjData(model)
-    path = np.empty((len(rec.qpos[::every]), 3))
-    for k, qpos in enumerate(rec.qpos[::every]):
-        data.qpos[:] = qpos
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        path[k] = data.subtree_com[world.root_body]
-    return path
+    """(samples, 3) whole-robot CoM, m, world, at every `every`-th recorded sample: the root's
+    subtree-CoM sensor, which MuJoCo computes inside each physics step from the state that sample
+    recorded (the same numbers as replaying the states through mj_kinematics and mj_comPos, which
+    took ~50 ms a run)."""
+    return rec.world.sensor(rec.sensordata[::every], "com_pos").copy()
 
 
 def clearance(rec: Recording, sample: int) -> float:

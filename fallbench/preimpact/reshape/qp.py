@@ -91,11 +91,16 @@ def _dynamics_rows(
     base tau = 0, (H_b, -(J'G)_b) y = -C_b; on the motors tau_m = (H_m, -(J'G)_m) y + C_m (the torque
     map of the torque limits). Returns (base rows, -C_b, motor rows, C_m)."""
     nv, n_l = force_map.shape
-    base, torque = np.empty((6, nv + n_l)), np.empty((len(motors), nv + n_l))
-    base[:, :nv], base[:, nv:] = H[:6], -force_map[:6]
-    for k in range(len(motors)):
-        torque[k, :nv], torque[k, nv:] = H[motors[k]], -force_map[motors[k]]
-    return base, -C[:6], torque, C[motors]
+    rows = np.concatenate((np.arange(6), motors))  # the base's velocity indices, then the motors'
+    stacked = np.empty((len(rows), nv + n_l))
+    bias = np.empty(len(rows))
+    for k in range(len(rows)):  # element loops, not slice assignments (see kernels)
+        for j in range(nv):
+            stacked[k, j] = H[rows[k], j]
+        for j in range(n_l):
+            stacked[k, nv + j] = -force_map[rows[k], j]
+        bias[k] = C[rows[k]]
+    return stacked[:6], -bias[:6], stacked[6:], bias[6:]
 
 
 def solve_reshape(qp: QPSolver, problem: ReshapeProblem) -> tuple[str, bool, np.ndarray | None]:
