@@ -58,6 +58,17 @@ def test_its_collada_meshes_are_converted() -> None:
     assert all(m.source.suffix == ".dae" and m.target.is_file() for m in meshes)
 
 
+def test_robots_check_names_the_converted_meshes() -> None:
+    from fallbench.results.robot_check import mesh_lines
+
+    romeo = mesh_lines(get_robot("romeo"))
+    assert romeo[0].startswith("meshes: 40 COLLADA files converted to STL")  # visual and collision
+    assert len(romeo) == 41 and all(line.endswith(".stl") for line in romeo[1:])
+    assert mesh_lines(get_robot("talos")) == [
+        "meshes: none converted (MuJoCo reads the URDF's meshes as they are)"
+    ]
+
+
 def test_a_non_physical_inertia_override_is_named(tmp_path: Path) -> None:
     card = tmp_path / "romeo.yaml"
     card.write_text(CARD.read_text().replace("izz: 0.00211065", "izz: 0.02"))

@@ -28,6 +28,8 @@ import pinocchio as pin
 from fallbench.dynamics.model import PinocchioModel, build_pinocchio
 from fallbench.registry import simulate_named
 from fallbench.robots import get_robot
+from fallbench.robots.description import RobotDescription
+from fallbench.robots.meshes import converted_meshes
 from fallbench.scenario import Scenario
 from fallbench.sim.events import tilt_deg
 from fallbench.sim.world import World, build_world, initial_state
@@ -265,6 +267,16 @@ def _motion_lines(robot: str) -> tuple[list[str], list[str]]:
     return lines, standing.problems(height) + terms.problems()
 
 
+def mesh_lines(description: RobotDescription) -> list[str]:
+    """Which of the robot's meshes were converted for MuJoCo (COLLADA to STL), and from where."""
+    converted = list({mesh.source: mesh for mesh in converted_meshes(description)}.values())  # once per file
+    if not converted:
+        return ["meshes: none converted (MuJoCo reads the URDF's meshes as they are)"]
+    cached = sum(mesh.cached for mesh in converted)
+    lines = [f"meshes: {len(converted)} COLLADA files converted to STL ({cached} from the cache):"]
+    return lines + [f"  {mesh.source} -> {mesh.target}" for mesh in converted]
+
+
 def check_robot(robot: str) -> RobotReport:
     """Compile the robot (a shipped name or a card path), report it, and run the checks."""
     description = get_robot(robot)
@@ -275,6 +287,7 @@ def check_robot(robot: str) -> RobotReport:
         f"model: {description.urdf_path} ({description.version})",
         f"mass: {description.mass:.2f} kg in the URDF, "
         f"{world.model.body_subtreemass[world.root_body]:.2f} kg simulated",
+        *mesh_lines(description),
         *_joint_lines(world),
     ]
     problems = joint_problems(world)
