@@ -34,6 +34,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fallbench.robots.cache import cache_root
+
 if TYPE_CHECKING:
     from fallbench.robots.description import RobotDescription
 
@@ -61,7 +63,7 @@ def cache_dir() -> Path:
     """Where converted meshes are kept."""
     if os.environ.get(CACHE_ENV):
         return Path(os.environ[CACHE_ENV])
-    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench" / "meshes"
+    return cache_root() / "meshes"
 
 
 def _sha256(path: Path) -> str:

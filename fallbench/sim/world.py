@@ -29,6 +29,7 @@ import mujoco
 import numpy as np
 
 from fallbench.robots import get_robot, robot_problem
+from fallbench.robots.cache import cache_root
 from fallbench.robots.description import RobotDescription
 from fallbench.robots.meshes import mujoco_urdf_text
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scenario
@@ -313,8 +314,7 @@ def _model_cache_file(scenario: Scenario) -> Path:
         + robot.fingerprint.encode()
         + _builder_source()
     )
-    root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench"
-    return root / f"world-{robot.name}-{digest.hexdigest()[:16]}.mjb"
+    return cache_root() / f"world-{robot.name}-{digest.hexdigest()[:16]}.mjb"
 
 
 def _save_to_cache(model: mujoco.MjModel, path: Path) -> None:

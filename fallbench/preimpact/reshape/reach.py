@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from fallbench.robots.cache import cache_root
 from fallbench.robots.description import RobotDescription
 
 SAMPLES = 4000
@@ -73,11 +74,10 @@ def _hull_vertices(points: np.ndarray) -> np.ndarray:
 
 
 def _cache_file(robot: RobotDescription) -> Path:
-    root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallbench"
     key = hashlib.sha256(
         robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}:{robot.torso_axes}".encode()
     ).hexdigest()[:16]
-    return root / f"reach-{robot.name}-{key}.npz"
+    return cache_root() / f"reach-{robot.name}-{key}.npz"
 
 
 def compute_polyhedra(model: pin.Model, robot: RobotDescription) -> dict[str, np.ndarray]:
