@@ -141,3 +141,23 @@ def test_a_g1_drop_stiff_survives_is_survived(hold_run) -> None:
     row = compute_metrics(recording)
     assert not row["fell"] and row["settled"]
     assert 0.0 < row["hold_start"] < HoldConfig.hold_after
+
+
+G1_TIP_OVER = Scenario(  # 004's 370 N forward push scaled to G1 by mass: the knees touch first
+    name="push_004", robot="g1", push={"force": 137, "duration": 0.1, "start": 0.1, "direction": 0}
+)
+
+
+@pytest.mark.slow
+def test_an_impact_off_the_feet_is_held_at_once() -> None:
+    """With `qp_impacts: feet` (default) a first impact on the knees is not a landing: no QP is
+    solved, the hold starts at the takeover and the fall is `stiff`'s; with `any` the QP takes it."""
+    stiff = compute_metrics(simulate_named(G1_TIP_OVER, "stiff"))
+    held = compute_metrics(simulate_named(G1_TIP_OVER, "adaptive_qp_hold"))
+    assert held["first_impact_group"] == "knees" and held["fell"] and stiff["fell"]
+    assert held["qp_steps"] == 0 and held["hold_start"] == 0.0
+    for measure in ("contact_force_peak_head", "contact_force_peak_torso", "vulnerable_hits"):
+        assert held[measure] == pytest.approx(stiff[measure], abs=1.0)
+    scenario = G1_TIP_OVER.model_copy(update={"policy_params": {"adaptive_qp_hold": {"qp_impacts": "any"}}})
+    absorbing = compute_metrics(simulate_named(scenario, "adaptive_qp_hold"))
+    assert absorbing["qp_steps"] > 0 and absorbing["hold_start"] > 0.0

@@ -11,6 +11,9 @@ angles at the absorption; the reference moves with the blend so that the PD torq
 of the QP's PD toward the impact pose and the stiff PD toward the crouch) or toward the impact
 pose (`hold_pose: impact`, `stiff`'s reference). After the blend the command is constant.
 
+Only a landing goes to the QP (`qp_impacts: feet`): a first impact on any body but the feet (a
+knee or a hand of a robot tipping over) counts as absorbed at the takeover, so the hold starts at
+once; on G1's pushes the QP's 50 ms of soft legs there raised the torso peak (measured in the docs).
 The impact counts as absorbed at the first control step after the takeover at which the base's
 vertical velocity (m/s, the simulator's root velocity, as `adaptive_qp` reads its base state) is
 above -`hold_speed` (the descent has nearly stopped), or at the latest `hold_after` seconds after
@@ -44,10 +47,14 @@ class HoldConfig:
     blend_time: float = 0.05  # s: linear blend from the QP's gains to the stiff gains
     # the stiff gains' reference: "landing" (the joint angles at the absorption) or "impact" (q_ref)
     hold_pose: str = "landing"
+    # the first impacts the QP absorbs: "feet" (a landing; an impact on any other body, e.g. a knee
+    # or hand of a robot tipping over, is held at once) or "any" (the QP takes every impact)
+    qp_impacts: str = "feet"
 
 
 HOLD_DEFAULTS: dict[str, Any] = {name: getattr(HoldConfig, name) for name in HoldConfig.__annotations__}
 HOLD_POSES = ("landing", "impact")
+QP_IMPACTS = ("feet", "any")
 
 
 @dataclass(frozen=True)
@@ -90,7 +97,7 @@ class AdaptiveQPHoldPolicy(GainPolicy):
     name = "adaptive_qp_hold"
     needs_contacts = True
     defaults: dict[str, Any] = AdaptiveQPPolicy.defaults | HOLD_DEFAULTS
-    choices = AdaptiveQPPolicy.choices | {"hold_pose": HOLD_POSES}
+    choices = AdaptiveQPPolicy.choices | {"hold_pose": HOLD_POSES, "qp_impacts": QP_IMPACTS}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
@@ -100,12 +107,16 @@ class AdaptiveQPHoldPolicy(GainPolicy):
         self.qp = AdaptiveQPPolicy(world, scenario.model_copy(update={"policy_params": policy_params}))
         self.takeover: float | None = None  # s: the first post-impact step
         self.absorption: Absorption | None = None
+        self.feet = set(world.robot.body_groups.get("feet", ()))
+        self.landing = True  # whether the first impact is on the feet only (set at the takeover)
 
     def after_impact(self, observation: Observation, q_ref: np.ndarray) -> ServoCommand:
         if self.takeover is None:
             self.takeover = observation.t
+            self.landing = self.config.qp_impacts == "any" or observation.touching <= self.feet
         if self.absorption is None:
-            if not absorbed(observation.t - self.takeover, float(observation.qvel[2]), self.config):
+            elapsed = observation.t - self.takeover
+            if self.landing and not absorbed(elapsed, float(observation.qvel[2]), self.config):
                 return self.qp.after_impact(observation, q_ref)
             self.absorption = Absorption(
                 observation.t, self.qp.kp.copy(), self.qp.kd.copy(), observation.q.copy()
