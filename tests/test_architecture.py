@@ -26,6 +26,7 @@ LAYERS: list[set[str]] = [
     {"registry"},
     {"environment"},  # the Gymnasium environment: drives the registry's worlds through sim's episode
     {"results"},
+    {"bench"},  # `fallbench bench`: times the environment, the runner and the store
     {"report"},
     {"cli"},
 ]

@@ -59,7 +59,7 @@ def bench_command(
     """
     import json
 
-    from fallbench.results.bench import markdown, run_bench
+    from fallbench.bench import markdown, run_bench
 
     chosen = _select(_load([scenario]), point, scenario)
     try:
