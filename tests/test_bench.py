@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fallbench.bench.commands import _sweep_file
 from fallbench.registry import load
-from fallbench.results.bench import _sweep_file
 
 
 def test_sweep_file_mixes_shipped_drops_and_pushes(tmp_path: Path) -> None:

@@ -16,7 +16,7 @@ import pytest
 from typer.testing import CliRunner
 
 from fallbench.cli import app
-from fallbench.results import store
+from fallbench.results import parts, store
 
 POLICIES = ("stiff", "oneshot", "zero", "adaptive_qp")
 
@@ -100,7 +100,7 @@ def test_interrupted_merge_is_finished_without_duplicates(
         store.consolidate(results)
     _add(results, range(7, 8))
     calls = {"n": 0}
-    recover = store._recover
+    recover = parts.recover
 
     def crash_after_journal(table: Path) -> None:
         calls["n"] += 1
@@ -108,10 +108,10 @@ def test_interrupted_merge_is_finished_without_duplicates(
             raise KeyboardInterrupt
         recover(table)
 
-    monkeypatch.setattr(store, "_recover", crash_after_journal)
+    monkeypatch.setattr(parts, "recover", crash_after_journal)
     with pytest.raises(KeyboardInterrupt):
         store.consolidate(results)
-    monkeypatch.setattr(store, "_recover", recover)
+    monkeypatch.setattr(parts, "recover", recover)
     assert (results / "metrics" / store.JOURNAL).exists()
     assert len(store.load_metrics(results)) == 8  # readers see the parts before the merge
     assert store.consolidate(results) == 0
@@ -186,7 +186,7 @@ def test_results_sql_and_pushed_down_filters(tmp_path: Path) -> None:
 CONSOLIDATE = """
 import os, sys, time
 from pathlib import Path
-from fallbench.results import store
+from fallbench.results import parts, store
 
 results, marks, name, hold = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3], sys.argv[4]
 
@@ -198,13 +198,13 @@ def pause():
 
 
 if hold == "add_part":
-    add_part = store._add_part
+    add_part = parts.add_part
 
     def held(table, rows):
         pause()
         add_part(table, rows)
 
-    store._add_part = held
+    parts.add_part = held
 elif hold == "merged":
     replace = os.replace
 
@@ -292,7 +292,7 @@ def test_two_writers_of_one_run_keep_the_first_stored(
     results = tmp_path / "r"
     row = _row(1)
     rid = str(row["run_id"])
-    write = store._fsync_write
+    write = parts.fsync_write
     raced = []
 
     def other_worker_first(path: Path, data: bytes) -> None:
@@ -301,7 +301,7 @@ def test_two_writers_of_one_run_keep_the_first_stored(
             store.write_run(results, rid, {"i": 1}, {**row, "imu_peak_z": -1.0}, None)
         write(path, data)
 
-    monkeypatch.setattr(store, "_fsync_write", other_worker_first)
+    monkeypatch.setattr(parts, "fsync_write", other_worker_first)
     store.write_run(results, rid, {"i": 1}, row, None)  # no error: the run is stored
     assert raced and store.is_done(results, rid)
     assert store.load_run_row(results, rid)["imu_peak_z"] == -1.0  # the first stored, kept whole

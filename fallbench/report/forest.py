@@ -107,44 +107,7 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     y = np.arange(len(arms))[::-1]  # the best at the top
     for ax, measure in zip(axes[0], measures):
         rows = changes[changes.measure == measure].set_index(["pre_impact", "policy"]).reindex(arms)
-        first = rows.iloc[0]
-        references = rows.reference.dropna().unique()
-        ax.axvline(0.5 if measure == IMPROVEMENT else 0.0, color="grey", linewidth=1.0)
-        for k, (arm, row) in enumerate(rows.iterrows()):
-            if np.isnan(row.value):
-                continue
-            low, high = (row.low, row.high) if not np.isnan(row.low) else (row.value, row.value)
-            ax.plot([low, high], [y[k], y[k]], color=colour(arm[1]), linewidth=2.2, solid_capstyle="butt")
-            ax.plot(
-                row.value,
-                y[k],
-                STRATEGY_MARKERS.get(arm[0], "^"),
-                color=colour(arm[1]),
-                markersize=6,
-                markeredgecolor="black",
-                markeredgewidth=0.6,
-            )
-        better = (
-            "<- less damage" if lower_is_better.get(measure, measure != IMPROVEMENT) else "less damage ->"
-        )
-        if measure == IMPROVEMENT:
-            ax.set_xlim(-0.05, 1.05)
-        # the reference's median on each row's own pairs: one value in the title when they agree
-        reference = {0: "", 1: f"; ref. {references[0]:.3g}" if len(references) else ""}.get(
-            len(references), "; ref. per row: table"
-        )
-        ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}{reference}", fontsize=8.5)
-        ax.set_xlabel(better, fontsize=8)
-        ax.tick_params(labelsize=7.5)
-        ax.xaxis.set_major_locator(MaxNLocator(nbins=3))  # wide numbers (forces in N) stay apart
-        ax.xaxis.set_major_formatter(FuncFormatter(_short_number))
-        if measure != IMPROVEMENT and not np.nanmax(
-            np.abs(rows[["low", "high", "value"]].to_numpy()), initial=0
-        ):
-            ax.set_xlim(-1.0, 1.0)  # every change 0: a readable axis, not +-0.05
-        for row in y[1::2]:
-            ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)
-        ax.grid(alpha=0.3, axis="x")
+        _panel(ax, measure, rows, y, lower_is_better)
     pairs = changes.groupby(["pre_impact", "policy"], sort=False).pairs.max()
     names = changes.drop_duplicates(["pre_impact", "policy"]).set_index(["pre_impact", "policy"]).name
     labels = [f"{names[arm]} (n={int(pairs[arm])})" for arm in arms]
@@ -155,6 +118,45 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     renderer = fig.canvas.get_renderer()
     label_inches = max(t.get_window_extent(renderer).width for t in axes[0, 0].get_yticklabels()) / fig.dpi
     return save_figure(fig, out, stem, _margins(fig, label_inches, title_lines))
+
+
+def _panel(ax, measure: str, rows: pd.DataFrame, y: np.ndarray, lower_is_better: dict[str, bool]) -> None:
+    """One measure's panel of the forest plot: each arm's median change (dot) and 95 % interval (bar)
+    on its row `y`, the line of no change, the axis and its title."""
+    first = rows.iloc[0]
+    references = rows.reference.dropna().unique()
+    ax.axvline(0.5 if measure == IMPROVEMENT else 0.0, color="grey", linewidth=1.0)
+    for k, (arm, row) in enumerate(rows.iterrows()):
+        if np.isnan(row.value):
+            continue
+        low, high = (row.low, row.high) if not np.isnan(row.low) else (row.value, row.value)
+        ax.plot([low, high], [y[k], y[k]], color=colour(arm[1]), linewidth=2.2, solid_capstyle="butt")
+        ax.plot(
+            row.value,
+            y[k],
+            STRATEGY_MARKERS.get(arm[0], "^"),
+            color=colour(arm[1]),
+            markersize=6,
+            markeredgecolor="black",
+            markeredgewidth=0.6,
+        )
+    better = "<- less damage" if lower_is_better.get(measure, measure != IMPROVEMENT) else "less damage ->"
+    if measure == IMPROVEMENT:
+        ax.set_xlim(-0.05, 1.05)
+    # the reference's median on each row's own pairs: one value in the title when they agree
+    reference = {0: "", 1: f"; ref. {references[0]:.3g}" if len(references) else ""}.get(
+        len(references), "; ref. per row: table"
+    )
+    ax.set_title(f"{first.label.split(' (')[0]}\n{first.unit}{reference}", fontsize=8.5)
+    ax.set_xlabel(better, fontsize=8)
+    ax.tick_params(labelsize=7.5)
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=3))  # wide numbers (forces in N) stay apart
+    ax.xaxis.set_major_formatter(FuncFormatter(_short_number))
+    if measure != IMPROVEMENT and not np.nanmax(np.abs(rows[["low", "high", "value"]].to_numpy()), initial=0):
+        ax.set_xlim(-1.0, 1.0)  # every change 0: a readable axis, not +-0.05
+    for row in y[1::2]:
+        ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)
+    ax.grid(alpha=0.3, axis="x")
 
 
 def _short_number(value: float, _position: int = 0) -> str:

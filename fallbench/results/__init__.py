@@ -1,1 +1,1 @@
-"""The results store, the sweep runner, the CI regression check and the benchmark."""
+"""The results store, the sweep runner and the CI regression check."""

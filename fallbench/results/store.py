@@ -6,14 +6,8 @@ interrupted sweep resumes by skipping the folders that exist. `metrics.json` hol
 time-series mode (`results.series`) and the metric row; runs of layout 1 (older stores) hold
 {spec.yaml, metrics.parquet, timeseries.parquet} and are read as they are.
 
-results/metrics/part-*.parquet hold every run's metric row, each run in exactly one part. A
-consolidation appends one part with the runs not yet in any part (it reads only their folders:
-O(new runs)), then merges parts size-tiered, FANOUT parts of a tier into one of the next tier.
-A part of MAX_PART_ROWS rows or more is final: a merge rewrites fewer than FANOUT x MAX_PART_ROWS
-rows, a row is rewritten at most 4 times, and a store of N runs has at most N / MAX_PART_ROWS +
-4 x (FANOUT - 1) parts. A merge is journalled (_merge.json) before it
-renames anything, so an interrupted one is finished by the next consolidation or read and a row is
-never seen twice. results/metrics/_common_metadata holds the schema of all parts together.
+`consolidate` adds the runs that no part of results/metrics/ holds yet; the parts themselves (lock,
+size-tiered merges, journal, common schema) are `results.parts`.
 
 Queries go through DuckDB (`query`, `load_metrics`): it reads the parts with projection and
 predicate push-down (row-group statistics; parts are sorted by robot, scenario, pre_impact, policy)
@@ -22,19 +16,21 @@ and answers SQL, for `fallbench results --sql`.
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import io
 import json
 import os
 import shutil
-import time
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from fallbench.results import parts
+from fallbench.results.parts import FANOUT as FANOUT  # the parts' sizes and journal, read as store.X
+from fallbench.results.parts import JOURNAL as JOURNAL
+from fallbench.results.parts import MAX_PART_ROWS as MAX_PART_ROWS
 from fallbench.results.series import DEFAULT_TIMESERIES, TIMESERIES_MODES, landing_windows
 from fallbench.results.series import FILE as SERIES
 from fallbench.results.series import encode as encode_series
@@ -53,13 +49,6 @@ METRICS = "metrics.parquet"  # one run's row, in its folder (layout 1)
 LEGACY_SERIES = "timeseries.parquet"  # layout 1: every physics step, float32, qpos NaN off the replay rows
 TABLE = "metrics"  # folder of the consolidated parts
 LEGACY_TABLE = "metrics.parquet"  # results/metrics.parquet, rebuilt whole by older versions
-COMMON_METADATA = "_common_metadata"
-JOURNAL = "_merge.json"
-LOCK = "_lock"
-FANOUT = 8
-MAX_PART_ROWS = FANOUT**4  # 4,096 rows: a part this big is final, so a merge rewrites < 8 x 4,096 rows
-ROW_GROUP_ROWS = 4096
-SORT_KEYS = ("robot", "scenario", "pre_impact", "policy", "run_id")
 FILTER_KEYS = ("scenario", "policy", "pre_impact", "robot")
 
 
@@ -78,13 +67,6 @@ def is_done(results: Path, rid: str) -> bool:
 
 class SeriesMissing(FileNotFoundError):
     """The run is stored without a time series (`--timeseries none`)."""
-
-
-def _fsync_write(path: Path, data: bytes) -> None:
-    with open(path, "wb") as handle:
-        handle.write(data)
-        handle.flush()
-        os.fsync(handle.fileno())
 
 
 def _json_scalar(value: Any) -> Any:
@@ -152,11 +134,11 @@ def write_run(
     try:
         text = io.StringIO()
         YAML(typ="safe", pure=True).dump(spec, text)
-        _fsync_write(tmp / "spec.yaml", text.getvalue().encode())
+        parts.fsync_write(tmp / "spec.yaml", text.getvalue().encode())
         if kept != "none":
             data = encode_series(series, kept, landing_windows(metrics), LAYOUT_VERSION)
-            _fsync_write(tmp / SERIES, data)
-        _fsync_write(tmp / METRICS_JSON, metrics_json(metrics, kept))
+            parts.fsync_write(tmp / SERIES, data)
+        parts.fsync_write(tmp / METRICS_JSON, metrics_json(metrics, kept))
         os.rename(tmp, final)
     except OSError:
         if final.exists():  # another worker stored the same run first
@@ -171,149 +153,12 @@ def write_run(
 # ---------------------------------------------------------------- consolidated parts
 
 
-@contextmanager
-def _locked(table: Path, exclusive: bool) -> Iterator[None]:
-    """One consolidation at a time; readers wait for it (fcntl locks die with their process)."""
-    with open(table / LOCK, "a+") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
-def _parts(table: Path) -> list[Path]:
-    """Live parts, oldest first (names start with a nanosecond time stamp)."""
-    return sorted(table.glob("part-*.parquet"))
-
-
-def _write_table(path: Path, data: pa.Table) -> None:
-    """Write, fsync, rename: a reader sees the whole part or none of it."""
-    import pyarrow.parquet as pq
-
-    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}.tmp"
-    with open(tmp, "wb") as handle:
-        pq.write_table(data, handle, row_group_size=ROW_GROUP_ROWS)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(tmp, path)
-
-
-def _new_part_path(table: Path) -> Path:
-    return table / f"part-{time.time_ns():020d}-{uuid.uuid4().hex[:8]}.parquet"
-
-
-def _recover(table: Path) -> None:
-    """Finish a merge interrupted after its journal was written; drop stray temporary files."""
-    journal = table / JOURNAL
-    if journal.exists():
-        plan = json.loads(journal.read_text())
-        staged, merged = table / plan["staged"], table / plan["merged"]
-        if staged.exists():
-            os.replace(staged, merged)
-        for name in plan["replaced"]:
-            (table / name).unlink(missing_ok=True)
-        journal.unlink()
-    for stray in table.glob(".*.tmp"):
-        stray.unlink()
-
-
-def _sorted(data: pa.Table) -> pa.Table:
-    keys = [(k, "ascending") for k in SORT_KEYS if k in data.column_names]
-    return data.sort_by(keys).replace_schema_metadata(None)
-
-
-def _concat(tables: list[pa.Table]) -> pa.Table:
-    import pyarrow as pa
-
-    return pa.concat_tables([t.replace_schema_metadata(None) for t in tables], promote_options="permissive")
-
-
-def _store_schema(table: Path) -> pa.Schema | None:
-    import pyarrow.parquet as pq
-
-    path = table / COMMON_METADATA
-    return pq.read_schema(path) if path.exists() else None
-
-
-def _conform(data: pa.Table, schema: pa.Schema | None) -> pa.Table:
-    """Columns that are all null in this batch take the store's type for them, so that every
-    part of the store agrees on each column's type (pandas and polars read the folder directly)."""
-    import pyarrow as pa
-
-    if schema is None:
-        return data
-    for i, field in enumerate(data.schema):
-        if pa.types.is_null(field.type) and field.name in schema.names:
-            data = data.set_column(i, field.name, pa.nulls(len(data), schema.field(field.name).type))
-    return data
-
-
-def _write_common_metadata(table: Path, parts: list[Path]) -> None:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    schema = pa.unify_schemas(
-        [pq.read_schema(p).remove_metadata() for p in parts], promote_options="permissive"
-    )
-    tmp = table / f".{COMMON_METADATA}.{uuid.uuid4().hex[:8]}.tmp"
-    pq.write_metadata(schema, tmp)
-    os.replace(tmp, table / COMMON_METADATA)
-
-
-def _stored_ids(parts: list[Path]) -> set[str]:
-    import pyarrow.parquet as pq
-
-    return {rid for part in parts for rid in pq.read_table(part, columns=["run_id"]).column(0).to_pylist()}
-
-
 def _run_names(results: Path) -> list[str]:
     """Names of the complete run folders (one directory listing; nothing inside them is read)."""
     if not (results / RUNS).exists():
         return []
     with os.scandir(results / RUNS) as entries:
         return [e.name for e in entries if not e.name.startswith(".") and e.is_dir()]
-
-
-def _tier(rows: int) -> int:
-    tier = 0
-    while rows >= FANOUT ** (tier + 1):
-        tier += 1
-    return tier
-
-
-def _merge(table: Path, group: list[Path]) -> None:
-    """Replace `group` by one part, journalled so that an interruption never leaves a row twice."""
-    import pyarrow.parquet as pq
-
-    merged = _new_part_path(table)
-    staged = table / f".{merged.name}.staged.tmp"
-    data = _sorted(_concat([pq.read_table(p) for p in group]))
-    with open(staged, "wb") as handle:
-        pq.write_table(data, handle, row_group_size=ROW_GROUP_ROWS)
-        handle.flush()
-        os.fsync(handle.fileno())
-    plan = {"staged": staged.name, "merged": merged.name, "replaced": [p.name for p in group]}
-    journal_tmp = table / f".{JOURNAL}.tmp"
-    _fsync_write(journal_tmp, json.dumps(plan).encode())
-    os.replace(journal_tmp, table / JOURNAL)
-    _recover(table)  # the same steps a later process takes after a crash
-
-
-def _compact(table: Path) -> None:
-    """Size-tiered merging: FANOUT parts of one tier become one part of a higher tier."""
-    import pyarrow.parquet as pq
-
-    while True:
-        tiers: dict[int, list[Path]] = {}
-        for part in _parts(table):
-            rows = pq.read_metadata(part).num_rows
-            if rows < MAX_PART_ROWS:
-                tiers.setdefault(_tier(rows), []).append(part)
-        full = next((group for _, group in sorted(tiers.items()) if len(group) >= FANOUT), None)
-        if full is None:
-            return
-        _merge(table, full)
 
 
 def _run_row(results: Path, rid: str) -> pa.Table:
@@ -353,24 +198,18 @@ def consolidate(results: Path, full: bool = False) -> int:
 
     table = results / TABLE
     table.mkdir(parents=True, exist_ok=True)
-    with _locked(table, exclusive=True):
-        _recover(table)
+    with parts.locked(table, exclusive=True):
+        parts.recover(table)
         if full:
-            for part in _parts(table):
+            for part in parts.live_parts(table):
                 part.unlink()
-            (table / COMMON_METADATA).unlink(missing_ok=True)
-        stored = _stored_ids(_parts(table))
+            (table / parts.COMMON_METADATA).unlink(missing_ok=True)
+        stored = parts.stored_ids(parts.live_parts(table))
         new = sorted(set(_run_names(results)) - stored)
         if new:
-            _add_part(table, _concat([_run_row(results, rid) for rid in new]))
+            parts.add_part(table, parts.concat([_run_row(results, rid) for rid in new]))
         (results / LEGACY_TABLE).unlink(missing_ok=True)  # the single-file table of older versions, now stale
     return len(new)
-
-
-def _add_part(table: Path, rows: pa.Table) -> None:
-    _write_table(_new_part_path(table), _sorted(_conform(rows, _store_schema(table))))
-    _compact(table)
-    _write_common_metadata(table, _parts(table))
 
 
 def add_rows(results: Path, rows: pa.Table) -> None:
@@ -378,9 +217,9 @@ def add_rows(results: Path, rows: pa.Table) -> None:
     benchmark's synthetic store); `consolidate` is the way for stored runs."""
     table = results / TABLE
     table.mkdir(parents=True, exist_ok=True)
-    with _locked(table, exclusive=True):
-        _recover(table)
-        _add_part(table, rows)
+    with parts.locked(table, exclusive=True):
+        parts.recover(table)
+        parts.add_part(table, rows)
 
 
 # ---------------------------------------------------------------- queries (DuckDB)
@@ -402,12 +241,12 @@ def connect(results: Path) -> Iterator[Any]:
     table = results / TABLE
     if not table.is_dir():
         raise FileNotFoundError(f"{table}: no results store here (run `fallbench run sweep` first)")
-    with _locked(table, exclusive=False):
-        parts = _parts(table)
+    with parts.locked(table, exclusive=False):
+        live = parts.live_parts(table)
         connection = duckdb.connect()
         try:
-            if parts:
-                files = ", ".join(_sql_string(str(p)) for p in parts)
+            if live:
+                files = ", ".join(_sql_string(str(p)) for p in live)
                 connection.execute(
                     f"CREATE VIEW runs AS SELECT * FROM read_parquet([{files}], union_by_name = true)"
                 )
