@@ -60,6 +60,22 @@ def test_failures_are_stored_and_strict_exits_nonzero(tmp_path: Path, sweep) -> 
     assert "0 failed" not in strict.output and "2 failed or diverged" in strict.output
 
 
+def test_a_sweep_whose_every_run_fails_is_summarised(tmp_path: Path, sweep, monkeypatch) -> None:
+    """Runs stored with status `error` and no metric columns still give the summary and its count."""
+    from fallbench.analysis import metrics
+
+    def broken(recording):
+        raise RuntimeError("planted")
+
+    monkeypatch.setattr(metrics, "compute_metrics", broken)
+    path = tmp_path / "one.yaml"
+    path.write_text("name: tiny\nduration: 0.3\n")
+    result = sweep(path, tmp_path / "r")
+    assert result.exit_code == 0, result.output
+    assert "2 runs in" in result.output and "2 failed or diverged" in result.output  # stiff, zero
+    assert "RuntimeError: planted" in result.output
+
+
 def test_same_metrics_with_one_or_two_jobs(tmp_path: Path, sweep) -> None:
     path = _write(tmp_path)
     assert sweep(path, tmp_path / "one", jobs=1).exit_code == 0

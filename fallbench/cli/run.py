@@ -184,7 +184,8 @@ def _sweep_summary(table, reports: Path):
     """Medians per (robot, scenario, strategy, policy) with run and failure counts, also written to
     `reports/sweep_summary.md`."""
     keys = ["robot", "scenario", "pre_impact", "policy"]
-    summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
+    measured = [column for column in SUMMARY_COLUMNS if column in table]  # none if every run failed
+    summary = table.groupby(keys)[measured].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())
     summary.insert(
         1, "failed", table[table.status != "ok"].groupby(keys).size().reindex(summary.index, fill_value=0)
