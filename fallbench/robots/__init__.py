@@ -6,8 +6,8 @@ is one of those names or the path of a user's card (`robot: my_robot/card.yaml`)
 
 from __future__ import annotations
 
+import functools
 import os
-from functools import cache
 from pathlib import Path
 
 from fallbench.robots.card import load_card
@@ -39,7 +39,7 @@ def robot_problem(robot: str) -> str | None:
     return None
 
 
-@cache
+@functools.cache  # (`cache` here would be the submodule fallbench.robots.cache once imported)
 def get_robot(robot: str) -> RobotDescription:
     """The robot of a shipped name or a card path; KeyError for an unknown name, InputError
     (file:line: key: reason) for a bad card."""

@@ -35,7 +35,9 @@ from fallbench.robots.description import (
     read_srdf_armature,
     read_srdf_disabled_collisions,
     read_srdf_postures,
+    resolve_package_uris,
 )
+from fallbench.robots.meshes import MeshError, mesh_file, mesh_names
 from fallbench.yamlfile import InputError, Strict, line_of, plain, read_yaml, validation_error
 
 CARD_SCHEMA_VERSION = 1  # of the card format; a card states the version it is written for
@@ -262,6 +264,7 @@ class CardReader:
     def description(self) -> RobotDescription:
         """The robot description the card gives, every name checked and every pattern expanded."""
         card = self.card
+        self._check_meshes()
         self._check_bodies()
         self._check_joints()
         body_groups = {
@@ -302,6 +305,27 @@ class CardReader:
             inertia_overrides=self._inertia_overrides(),
             torso_axes=(card.torso_axes.forward, card.torso_axes.left, card.torso_axes.up),
         )
+
+    def _check_meshes(self) -> None:
+        """Every mesh the URDF names is a file: a package URI resolved into `root` by
+        `package_uri`, a relative path from the URDF's folder, or an absolute path."""
+        model = self.card.model
+        for name in mesh_names(self.urdf_path.read_text()):
+            try:
+                path = mesh_file(
+                    resolve_package_uris(name, model.package_uri, self.root), self.urdf_path.parent
+                )
+            except MeshError:
+                raise self.error(
+                    ("model", "package_uri"),
+                    f"{self.urdf_path.name} names mesh {name}, which package_uri "
+                    f"{model.package_uri!r} does not resolve: set it to the URI's part "
+                    f"before the path inside root ({self.root})",
+                ) from None
+            if not path.is_file():
+                raise self.error(
+                    ("model", "urdf"), f"{self.urdf_path.name} names mesh {name}: no file {path}"
+                )
 
     def _check_bodies(self) -> None:
         card, links = self.card, self.urdf.links

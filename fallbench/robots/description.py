@@ -103,7 +103,7 @@ class RobotDescription:
         text = self.urdf_path.read_text()
         for link, tensor in self.inertia_overrides.items():
             text = override_inertia(text, link, tensor)
-        return re.sub(rf"package:///?{re.escape(self.package_prefix)}", str(self.mesh_root) + "/", text)
+        return resolve_package_uris(text, self.package_prefix, self.mesh_root)
 
     def default_gains(self, joint: str) -> tuple[float, float]:
         for group in self.gain_groups:
@@ -152,6 +152,11 @@ class RobotDescription:
     def standing_height(self) -> float:
         """m, root height standing in `default`: the robot's length scale."""
         return self.posture_base_height[DEFAULT_POSTURE]
+
+
+def resolve_package_uris(text: str, prefix: str, root: Path) -> str:
+    """A URDF's text with `package://<prefix>` URIs turned into paths inside `root`."""
+    return re.sub(rf"package:///?{re.escape(prefix)}", str(root) + "/", text)
 
 
 INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
