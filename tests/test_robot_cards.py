@@ -87,6 +87,63 @@ def test_a_card_in_a_folder_runs_a_drop_that_is_stored(tmp_path: Path) -> None:
     assert exported.exit_code == 0 and 'name="lower_left_6_link"' in (tmp_path / "s.xml").read_text()
 
 
+def with_meshes_beside(folder: Path):
+    """An `edit_urdf` for `renamed_talos`: the URDF names its meshes relative to its own folder
+    (`meshes/...`, a link to TALOS's), as a user's description package often does."""
+    (folder / "meshes").symlink_to(TALOS.mesh_root / "talos_data" / "meshes")
+    return lambda urdf: urdf.replace(f"{TALOS.mesh_root}/talos_data/", "")
+
+
+def test_a_card_in_a_folder_runs_a_sweep_and_a_report_under_its_name(tmp_path: Path, sweep) -> None:
+    card = renamed_talos(tmp_path, edit_urdf=with_meshes_beside(tmp_path))
+    assert 'filename="meshes/' in (tmp_path / "bot.urdf").read_text()
+    (tmp_path / "drop.yaml").write_text("name: drop\nrobot: bot.yaml\ninitial: {height: 0.2}\n")
+    results, out = tmp_path / "results", tmp_path / "report"
+    ran = sweep(tmp_path / "drop.yaml", results)  # stiff and zero: two runs, a ranking
+    assert ran.exit_code == 0 and len(ran.simulated) == 2, ran.output
+    assert set(load_metrics(results).robot) == {str(card)}  # the store keeps the card's path
+    result = invoke("report", "--results", str(results), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 0, result.output
+    page = out / "family_bot_drop.html"  # the card's `name`, not its path
+    assert page.is_file() and "<title>bot drop</title>" in page.read_text()
+    for written in out.iterdir():
+        assert "yaml" not in written.name and "tmp" not in written.name, written.name
+        if written.suffix in (".html", ".md"):
+            assert str(card) not in written.read_text(), written.name
+    assert "drop[robot=bot]#s0" in page.read_text()  # the point labels too
+
+
+def test_a_card_resolves_package_uris_and_says_which_mesh_is_missing(tmp_path: Path) -> None:
+    from fallbench.scenario import Scenario
+    from fallbench.sim.world import build_world
+
+    def packaged(urdf: str) -> str:  # as ROS names them: package://<package>/<path inside it>
+        return urdf.replace(f"{TALOS.mesh_root}/talos_data/", "package://bot_description/")
+
+    cards = {}
+    for case in ("ok", "other_uri", "no_meshes"):  # a card path is read once a process
+        (tmp_path / case / "bot_description").mkdir(parents=True)
+        if case != "no_meshes":
+            (tmp_path / case / "bot_description" / "meshes").symlink_to(
+                TALOS.mesh_root / "talos_data" / "meshes"
+            )
+        uri = "other/" if case == "other_uri" else ""
+        cards[case] = renamed_talos(
+            tmp_path / case,
+            lambda text, uri=uri: text.replace("model: {", f"model: {{package_uri: '{uri}', "),
+            packaged,
+        )
+    world = build_world(Scenario(name="s", duration=1.0, robot=str(cards["ok"])))  # MuJoCo read every mesh
+    assert world.model.nmesh > 0
+    result = invoke("robots", "show", str(cards["other_uri"]))
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert ": model.package_uri: bot.urdf names mesh package://bot_description/meshes/" in result.output
+    result = invoke("robots", "show", str(cards["no_meshes"]))
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert ": model.urdf: bot.urdf names mesh package://bot_description/meshes/" in result.output
+    assert f"no file {tmp_path / 'no_meshes' / 'bot_description' / 'meshes'}" in result.output
+
+
 def test_the_run_identity_holds_the_card(tmp_path: Path) -> None:
     from fallbench.results.runner import RunSpec, _versions
 
