@@ -293,6 +293,9 @@ def _check_backend(backend: str, scheduler: str | None) -> None:
 def _sweep_summary(table, reports: Path):
     """Medians per (robot, scenario, strategy, policy) with run and failure counts, also written to
     `reports/sweep_summary.md`."""
+    from fallbench.robots import robot_names  # a card's robot by its name, as the report names it
+
+    table = table.assign(robot=table.robot.map(robot_names(list(table.robot.unique()))))
     keys = ["robot", "scenario", "pre_impact", "policy"]
     summary = table.groupby(keys)[SUMMARY_COLUMNS].median(numeric_only=True)
     summary.insert(0, "runs", table.groupby(keys).size())

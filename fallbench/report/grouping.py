@@ -27,10 +27,18 @@ def with_robot(runs: pd.DataFrame) -> pd.DataFrame:
             mine = runs.robot_card == stored
             for column in ("point", "group"):
                 if column in runs:
-                    runs.loc[mine, column] = runs.loc[mine, column].str.replace(
-                        f"robot={stored}", f"robot={name}", regex=False
+                    runs.loc[mine, column] = runs.loc[mine, column].map(
+                        lambda label, stored=stored, name=name: named_point(label, stored, name)
                     )
     return runs
+
+
+def named_point(point: str, robot: str, name: str | None = None) -> str:
+    """A stored point label with its robot as the report names it (`robot=<card path>` becomes
+    `robot=<card name>`; `name`: the robot's name, by default `robot_names` of it alone)."""
+    if name is None:
+        name = robot_names([robot])[robot]
+    return point.replace(f"robot={robot}", f"robot={name}")
 
 
 RUN_KEY = ("robot", "scenario", "point", "seed", "physics_dt", "pre_impact", "policy")  # one fall
