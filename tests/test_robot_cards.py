@@ -260,3 +260,107 @@ def test_robots_check_passes_the_renamed_robot_and_says_why_others_fail(tmp_path
     )
     result = invoke("robots", "check", str(unlimited))
     assert result.exit_code == 1 and "problem: joint arm_left_2_joint has no range" in result.output
+
+
+@pytest.mark.parametrize(
+    "edit_card, edit_urdf, exit_code, says",
+    [
+        (
+            lambda card: card.replace("imu_body: base_link", "imu_body: imu_frame"),
+            None,
+            2,
+            ": imu_body: no body 'imu_frame' in bot.urdf",
+        ),
+        (
+            lambda card: card.replace("head: [head_1_link,", "head: [helmet_.*, head_1_link,"),
+            None,
+            2,
+            ": body_groups.head.0: 'helmet_.*' matches no body of bot.urdf",
+        ),
+        (
+            None,
+            lambda urdf: re.sub(r'type="(revolute|continuous)"', 'type="fixed"', urdf),
+            2,
+            ": model.urdf: bot.urdf has no revolute or continuous joint: nothing for a servo to drive",
+        ),
+        (
+            None,
+            lambda urdf: re.sub(
+                r'(<joint name="arm_left_2_joint" type="revolute">.*?effort=")[^"]*"',
+                r'\g<1>0"',
+                urdf,
+                count=1,
+                flags=re.S,
+            ),
+            1,
+            "problem: joint arm_left_2_joint has no torque limit",
+        ),
+    ],
+    ids=["imu body missing", "group matching nothing", "no actuated joint", "no torque limit"],
+)
+def test_robots_check_fails_with_the_reason(tmp_path: Path, edit_card, edit_urdf, exit_code, says) -> None:
+    card = renamed_talos(tmp_path, edit_card or (lambda text: text), edit_urdf or (lambda text: text))
+    result = invoke("robots", "check", str(card))
+    assert result.exit_code == exit_code and says in result.output, result.output
+    if exit_code == 2:  # a bad card: one line, before anything is compiled
+        assert len(result.output.strip().splitlines()) == 1 and result.output.startswith(f"error: {card}:")
+
+
+def test_disabled_collisions_auto_disables_the_pairs_touching_in_the_stance(tmp_path: Path) -> None:
+    from fallbench.results.robot_check import stance_scenario, touching_pairs
+    from fallbench.sim.world import build_world, stance_contacts
+
+    def without_srdf_pairs(folder: Path, entry: str) -> str:
+        folder.mkdir()
+        card = renamed_talos(folder, lambda text: text + (f"disabled_collisions: {entry}\n" if entry else ""))
+        srdf = folder / "bot.srdf"
+        srdf.write_text(re.sub(r"<disable_collisions[^>]*/>", "", srdf.read_text()))
+        return str(card)
+
+    bare = without_srdf_pairs(tmp_path / "bare", "")
+    touching = touching_pairs(build_world(stance_scenario(bare)), stance_scenario(bare))
+    assert ("base_link", "torso_2_link") in touching and (
+        "lower_left_1_link",
+        "lower_left_3_link",
+    ) in touching
+    auto = without_srdf_pairs(tmp_path / "auto", "[auto, [lower_left_1_link, lower_left_3_link]]")
+    assert get_robot(auto).disabled_collisions == (("lower_left_1_link", "lower_left_3_link"),)
+    assert set(stance_contacts(get_robot(auto))) == set(touching) - {
+        ("lower_left_1_link", "lower_left_3_link")
+    }
+    assert touching_pairs(build_world(stance_scenario(auto)), stance_scenario(auto)) == []
+    shown = invoke("robots", "show", auto)
+    assert "and those touching in the default stance (auto)" in shown.output
+
+
+def test_an_imu_site_is_a_frame_on_a_body(tmp_path: Path) -> None:
+    import math
+
+    import numpy as np
+
+    from fallbench.scenario import Scenario
+    from fallbench.sim.world import build_world, initial_state
+
+    site = "imu_site: {body: torso_2_link, pos: [0.04, 0.0, 0.1], rpy: [3.141592653589793, 0, 0]}"  # z down
+    (tmp_path / "site").mkdir()
+    card = renamed_talos(tmp_path / "site", lambda text: text.replace("imu_body: base_link", site))
+    scenario = Scenario(name="s", duration=1.0, robot=str(card), initial={"height": 0.5})
+    world = build_world(scenario)
+    imu = world.model.site("imu")
+    assert world.model.body(imu.bodyid[0]).name == "torso_2_link"
+    np.testing.assert_allclose(imu.pos, [0.04, 0.0, 0.1])
+    np.testing.assert_allclose(imu.quat, [math.cos(math.pi / 2), 1.0, 0.0, 0.0], atol=1e-12)
+    data = initial_state(world, scenario)
+    z_axis = data.site_xmat[imu.id].reshape(3, 3)[:, 2]  # the torso upright: the IMU's z points down
+    np.testing.assert_allclose(z_axis, [0.0, 0.0, -1.0], atol=0.05)
+    shown = invoke("robots", "show", str(card))
+    assert "IMU torso_2_link at [0.04, 0.0, 0.1] m" in shown.output
+    (tmp_path / "both").mkdir()
+    both = renamed_talos(
+        tmp_path / "both", lambda text: text.replace("imu_body: base_link", f"imu_body: base_link\n{site}")
+    )
+    result = invoke("robots", "show", str(both))
+    assert (
+        result.exit_code == 2
+        and ": imu_body: give the IMU as either `imu_body` or `imu_site`" in result.output
+    )

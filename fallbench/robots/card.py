@@ -18,7 +18,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, distribution, version
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, ValidationError, field_validator
@@ -71,6 +71,15 @@ class Inertia(Strict):
     iyy: float
     iyz: float
     izz: float
+
+
+class ImuSite(Strict):
+    """The IMU as a frame on a body: the accelerometer and gyro sit at `pos`, their axes turned by
+    `rpy` (the URDF's roll, pitch, yaw about the body's fixed x, y, z axes)."""
+
+    body: Name
+    pos: Axis = (0.0, 0.0, 0.0)  # m, in the body's frame
+    rpy: Axis = (0.0, 0.0, 0.0)  # rad
 
 
 class Gains(Strict):
@@ -133,14 +142,16 @@ class RobotCard(Strict):
     model: ModelFiles
     root_body: Name  # the floating base
     torso_body: Name  # whose tilt detects falls; pushed by default
-    imu_body: Name  # the accelerometer sits at its origin, axes aligned with it
+    imu_body: Name | None = None  # the accelerometer sits at its origin, axes aligned with it ...
+    imu_site: ImuSite | None = None  # ... or at a frame on a body (one of the two)
     standing_height: Annotated[float, Field(gt=0, le=10)]  # m, root height standing in `default`
     default_posture: Name | None = None  # the posture that is `default` (the nominal stance), by name
     postures: dict[Name, dict[Name, Radians]] = {}  # name -> joint -> rad (the SRDF's are added)
     gains: Annotated[dict[Name, Gains], Field(min_length=1)]  # joint regex -> stiff PD gains, first match
     learned_gains: dict[Name, Gains] = {}  # joint regex -> servo gains under a learned policy
     armature: dict[Name, Annotated[float, Field(ge=0, le=100)]] = {}  # joint or regex -> kg m^2
-    disabled_collisions: tuple[tuple[Name, Name], ...] = ()  # body pairs never in contact
+    # body pairs never in contact; `auto` (alone or as an entry): also the pairs touching in `default`
+    disabled_collisions: Literal["auto"] | tuple[Literal["auto"] | tuple[Name, Name], ...] = ()
     inertia_overrides: dict[Name, Inertia] = {}  # link -> tensor replacing the URDF's (a fix to its data)
     body_groups: BodyGroups
     legs: Legs
@@ -171,6 +182,17 @@ class Urdf:
     @property
     def actuated(self) -> tuple[str, ...]:
         return tuple(name for name, kind in self.joints.items() if kind in ACTUATED)
+
+
+def rpy_quaternion(rpy: tuple[float, float, float]) -> tuple[float, float, float, float]:
+    """(w, x, y, z) of the URDF's roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    (cr, sr), (cp, sp), (cy, sy) = ((np.cos(a / 2), np.sin(a / 2)) for a in rpy)
+    return (
+        float(cr * cp * cy + sr * sp * sy),
+        float(sr * cp * cy - cr * sp * sy),
+        float(cr * sp * cy + sr * cp * sy),
+        float(cr * cp * sy - sr * sp * cy),
+    )
 
 
 def card_key(field: str) -> str:
@@ -211,6 +233,11 @@ class CardReader:
             self.urdf = read_urdf(self.urdf_path)
         except ET.ParseError as exc:
             raise self.error(("model", "urdf"), f"not a readable URDF ({exc})") from None
+        if not self.urdf.actuated:
+            raise self.error(
+                ("model", "urdf"),
+                f"{self.urdf_path.name} has no revolute or continuous joint: nothing for a servo to drive",
+            )
 
     def error(self, loc: tuple[Any, ...], reason: str) -> InputError:
         """The problem at `loc` (keys and list indices), at its line in the card."""
@@ -283,7 +310,10 @@ class CardReader:
             card_path=self.path,
             root_body=card.root_body,
             torso_body=card.torso_body,
-            imu_body=card.imu_body,
+            imu_body=card.imu_body if card.imu_site is None else card.imu_site.body,
+            imu_pose=None
+            if card.imu_site is None
+            else (card.imu_site.pos, rpy_quaternion(card.imu_site.rpy)),
             gain_groups=self._gains("gains", card.gains),
             learned_gain_groups=self._gains("learned_gains", card.learned_gains),
             body_groups=body_groups,
@@ -302,6 +332,7 @@ class CardReader:
             postures=postures,
             posture_base_height=heights,
             disabled_collisions=self._disabled_collisions(),
+            disable_stance_contacts="auto" in card.disabled_collisions,
             inertia_overrides=self._inertia_overrides(),
             torso_axes=(card.torso_axes.forward, card.torso_axes.left, card.torso_axes.up),
         )
@@ -329,8 +360,14 @@ class CardReader:
 
     def _check_bodies(self) -> None:
         card, links = self.card, self.urdf.links
-        for key in ("root_body", "torso_body", "imu_body"):
+        for key in ("root_body", "torso_body"):
             self.names((key,), (getattr(card, key),), links, "body")
+        if (card.imu_body is None) == (card.imu_site is None):
+            raise self.error(("imu_body",), "give the IMU as either `imu_body` or `imu_site`, one of the two")
+        if card.imu_site is not None:
+            self.names(("imu_site", "body"), (card.imu_site.body,), links, "body")
+        else:
+            self.names(("imu_body",), (card.imu_body,), links, "body")
         for side in SIDES:
             if card.feet is not None:
                 self.names(("feet", side), (getattr(card.feet, side),), links, "body")
@@ -338,7 +375,7 @@ class CardReader:
                 arm = getattr(card.arms, side)
                 for key in ("wrist_frame", "hand_frame"):
                     self.names(("arms", side, key), (getattr(arm, key),), links, "body")
-        for index, pair in enumerate(card.disabled_collisions):
+        for index, pair in enumerate(self._pairs()):
             self.names(("disabled_collisions", index), pair, links, "body")
 
     def _check_joints(self) -> None:
@@ -445,10 +482,15 @@ class CardReader:
             overrides[link] = tensor
         return overrides
 
+    def _pairs(self) -> tuple[tuple[str, str], ...]:
+        """The card's disabled pairs (`auto` left out)."""
+        entries = self.card.disabled_collisions
+        return () if entries == "auto" else tuple(pair for pair in entries if pair != "auto")
+
     def _disabled_collisions(self) -> tuple[tuple[str, str], ...]:
         """The SRDF's disabled pairs, then the card's."""
         srdf = read_srdf_disabled_collisions(self.srdf_path) if self.srdf_path else ()
-        return srdf + self.card.disabled_collisions
+        return srdf + self._pairs()
 
     def _fingerprint(self) -> str:
         """Hash of the card and the model files: part of every run's identity."""
