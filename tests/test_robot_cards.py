@@ -19,6 +19,7 @@ from fallbench.results.store import consolidate, load_metrics
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.robots.card import load_card
 from fallbench.scenario import ScenarioError, load_scenario_file
+from fallbench.yamlfile import InputError
 
 TALOS = get_robot("talos")
 RENAMED = re.compile(r'((?:name|link|link1|link2|joint)=")leg_')  # XML references to a leg body or joint
@@ -364,3 +365,47 @@ def test_an_imu_site_is_a_frame_on_a_body(tmp_path: Path) -> None:
         result.exit_code == 2
         and ": imu_body: give the IMU as either `imu_body` or `imu_site`" in result.output
     )
+
+
+def test_postures_from_the_keyframes_of_an_mjcf(tmp_path: Path) -> None:
+    """An MJCF of the robot (here compiled from its own URDF, as a model collection would ship it)
+    names postures by its <key>s; `default_posture` may take one."""
+    import mujoco
+
+    renamed_talos(tmp_path)  # the URDF, to make the MJCF from
+    spec = mujoco.MjSpec.from_string((tmp_path / "bot.urdf").read_text())
+    spec.worldbody.first_body().add_freejoint()
+    model = spec.compile()
+    qpos = model.qpos0.copy()
+    qpos[2] = 0.95  # root height
+    knee = model.jnt_qposadr[model.joint("lower_left_4_joint").id]
+    qpos[knee] = 1.0
+    key = spec.add_key()
+    key.name, key.qpos = "crouch", qpos.tolist()
+    spec.compile()
+    (tmp_path / "bot.xml").write_text(spec.to_xml())
+
+    def with_keys(text: str) -> str:
+        text = text.replace(
+            "model: {urdf: bot.urdf, srdf: bot.srdf}",
+            "model: {urdf: bot.urdf, srdf: bot.srdf, keyframes: bot.xml}",
+        )
+        return text.replace("default_posture: half_sitting", "default_posture: crouch")
+
+    (tmp_path / "keys").mkdir()
+    for name in ("bot.urdf", "bot.srdf", "bot.xml"):
+        (tmp_path / "keys" / name).write_text((tmp_path / name).read_text())
+    card = tmp_path / "keys" / "bot.yaml"
+    card.write_text(with_keys((tmp_path / "bot.yaml").read_text()))
+    bot = load_card(card)
+    assert (
+        bot.postures["crouch"]["lower_left_4_joint"] == 1.0
+        and bot.postures["crouch"]["lower_right_4_joint"] == 0.0
+    )
+    assert (
+        bot.postures["default"] == bot.postures["crouch"] and "half_sitting" in bot.postures
+    )  # the SRDF's too
+    assert bot.posture_base_height["crouch"] == pytest.approx(0.95)
+    (tmp_path / "keys" / "bot.xml").write_text(spec.to_xml().replace('name="crouch"', 'name=""'))
+    with pytest.raises(InputError, match=r"model.keyframes: bot.xml has no named keyframe"):
+        load_card(card)

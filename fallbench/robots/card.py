@@ -57,6 +57,7 @@ class ModelFiles(Strict):
 
     urdf: Name  # path relative to `root`
     srdf: Name | None = None  # optional: postures (group states), disabled collisions, rotor parameters
+    keyframes: Name | None = None  # optional: an MJCF of the robot whose named <key>s are postures
     package: Name | None = None  # installed Python distribution holding the files; default: the card's folder
     root: Name = "."  # folder inside `package` (or the card's folder) that the paths are relative to
     package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root`
@@ -229,6 +230,7 @@ class CardReader:
         self.root, self.version = self._model_root()
         self.urdf_path = self._file("urdf", card.model.urdf)
         self.srdf_path = self._file("srdf", card.model.srdf) if card.model.srdf else None
+        self.keyframes_path = self._file("keyframes", card.model.keyframes) if card.model.keyframes else None
         try:
             self.urdf = read_urdf(self.urdf_path)
         except ET.ParseError as exc:
@@ -445,6 +447,10 @@ class CardReader:
         postures = {
             name: {j: v for j, v in joints.items() if j in actuated} for name, joints in postures.items()
         }
+        if self.keyframes_path is not None:
+            keys, key_heights = self._keyframes(self.keyframes_path, actuated)
+            postures.update(keys)
+            heights.update(key_heights)
         for name, joints in self.card.postures.items():
             for joint in joints:
                 self.names(("postures", name, joint), (joint,), self.urdf.actuated, "actuated joint")
@@ -461,6 +467,42 @@ class CardReader:
                 ("postures",), f"no posture {DEFAULT_POSTURE!r} (the nominal stance) nor `default_posture`"
             )
         heights[DEFAULT_POSTURE] = self.card.standing_height
+        return postures, heights
+
+    def _keyframes(
+        self, path: Path, actuated: set[str]
+    ) -> tuple[dict[str, dict[str, float]], dict[str, float]]:
+        """The named keyframes of the MJCF `model.keyframes` (as MuJoCo compiles it): posture name ->
+        the values of its hinge joints that are actuated joints of the URDF, and the height of its
+        free joint (the root) where it has one."""
+        import mujoco
+
+        loc = ("model", "keyframes")
+        try:
+            model = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as exc:
+            raise self.error(loc, f"MuJoCo cannot read {path.name}: {' '.join(str(exc).split())}") from None
+        postures, heights = {}, {}
+        for key in range(model.nkey):
+            name = model.key(key).name
+            if not name:
+                continue
+            qpos = model.key_qpos[key]
+            joints = {}
+            for joint in range(model.njnt):
+                address = model.jnt_qposadr[joint]
+                if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_FREE:
+                    heights[name] = float(qpos[address + 2])
+                elif (
+                    model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_HINGE
+                    and model.joint(joint).name in actuated
+                ):
+                    joints[model.joint(joint).name] = float(qpos[address])
+            if not joints:
+                raise self.error(loc, f"keyframe {name!r} sets no actuated joint of {self.urdf_path.name}")
+            postures[name] = joints
+        if not postures:
+            raise self.error(loc, f"{path.name} has no named keyframe")
         return postures, heights
 
     def _inertia_overrides(self) -> dict[str, tuple[float, ...]]:
@@ -497,4 +539,6 @@ class CardReader:
         digest = hashlib.sha256(self.path.read_bytes() + self.urdf_path.read_bytes())
         if self.srdf_path is not None:
             digest.update(self.srdf_path.read_bytes())
+        if self.keyframes_path is not None:
+            digest.update(self.keyframes_path.read_bytes())
         return digest.hexdigest()[:16]
