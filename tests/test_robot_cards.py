@@ -95,6 +95,7 @@ def with_meshes_beside(folder: Path):
     return lambda urdf: urdf.replace(f"{TALOS.mesh_root}/talos_data/", "")
 
 
+@pytest.mark.slow
 def test_a_card_in_a_folder_runs_a_sweep_and_a_report_under_its_name(tmp_path: Path, sweep) -> None:
     card = renamed_talos(tmp_path, edit_urdf=with_meshes_beside(tmp_path))
     assert 'filename="meshes/' in (tmp_path / "bot.urdf").read_text()
