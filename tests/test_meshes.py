@@ -95,6 +95,17 @@ def test_an_unreadable_mesh_is_one_line_naming_it(
     assert not (tmp_path / "cache").exists() or not list((tmp_path / "cache").iterdir())
 
 
-def test_meshes_mujoco_reads_are_left_alone(tmp_path: Path) -> None:
-    urdf = URDF.replace("meshes/tet.dae", "meshes/tet.stl")
-    assert convert_urdf_meshes(urdf, tmp_path, tmp_path / "cache") == (urdf, ())
+def test_meshes_mujoco_reads_are_not_converted_and_relative_paths_made_absolute(tmp_path: Path) -> None:
+    """MuJoCo reads the URDF from a string: a path relative to the URDF's folder (or a file:// URI)
+    must reach it absolute; absolute paths, other attributes and the rest of the text stay."""
+    urdf = URDF.replace("meshes/tet.dae", "meshes/tet.stl", 1).replace(
+        "meshes/tet.dae", "file:///abs/tet.stl"
+    )
+    urdf = urdf.replace("</robot>", '<gazebo><plugin filename="libplugin.so"/></gazebo>\n</robot>')
+    text, converted = convert_urdf_meshes(urdf, tmp_path, tmp_path / "cache")
+    assert not converted
+    assert text == urdf.replace("meshes/tet.stl", f"{tmp_path.resolve()}/meshes/tet.stl").replace(
+        "file:///abs/tet.stl", "/abs/tet.stl"
+    )
+    absolute = URDF.replace("meshes/tet.dae", "/abs/tet.stl")
+    assert convert_urdf_meshes(absolute, tmp_path, tmp_path / "cache") == (absolute, ())

@@ -19,6 +19,7 @@ from fallbench.results.store import consolidate, load_metrics
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.robots.card import load_card
 from fallbench.scenario import ScenarioError, load_scenario_file
+from fallbench.yamlfile import InputError
 
 TALOS = get_robot("talos")
 RENAMED = re.compile(r'((?:name|link|link1|link2|joint)=")leg_')  # XML references to a leg body or joint
@@ -85,6 +86,64 @@ def test_a_card_in_a_folder_runs_a_drop_that_is_stored(tmp_path: Path) -> None:
     assert row["version:robot_card"] == get_robot(str(card)).fingerprint
     exported = invoke("scenarios", "export", str(tmp_path / "drop.yaml"), "--out", str(tmp_path / "s.xml"))
     assert exported.exit_code == 0 and 'name="lower_left_6_link"' in (tmp_path / "s.xml").read_text()
+
+
+def with_meshes_beside(folder: Path):
+    """An `edit_urdf` for `renamed_talos`: the URDF names its meshes relative to its own folder
+    (`meshes/...`, a link to TALOS's), as a user's description package often does."""
+    (folder / "meshes").symlink_to(TALOS.mesh_root / "talos_data" / "meshes")
+    return lambda urdf: urdf.replace(f"{TALOS.mesh_root}/talos_data/", "")
+
+
+@pytest.mark.slow
+def test_a_card_in_a_folder_runs_a_sweep_and_a_report_under_its_name(tmp_path: Path, sweep) -> None:
+    card = renamed_talos(tmp_path, edit_urdf=with_meshes_beside(tmp_path))
+    assert 'filename="meshes/' in (tmp_path / "bot.urdf").read_text()
+    (tmp_path / "drop.yaml").write_text("name: drop\nrobot: bot.yaml\ninitial: {height: 0.2}\n")
+    results, out = tmp_path / "results", tmp_path / "report"
+    ran = sweep(tmp_path / "drop.yaml", results)  # stiff and zero: two runs, a ranking
+    assert ran.exit_code == 0 and len(ran.simulated) == 2, ran.output
+    assert set(load_metrics(results).robot) == {str(card)}  # the store keeps the card's path
+    result = invoke("report", "--results", str(results), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 0, result.output
+    page = out / "family_bot_drop.html"  # the card's `name`, not its path
+    assert page.is_file() and "<title>bot drop</title>" in page.read_text()
+    for written in out.iterdir():
+        assert "yaml" not in written.name and "tmp" not in written.name, written.name
+        if written.suffix in (".html", ".md"):
+            assert str(card) not in written.read_text(), written.name
+    assert "drop[robot=bot]#s0" in page.read_text()  # the point labels too
+
+
+def test_a_card_resolves_package_uris_and_says_which_mesh_is_missing(tmp_path: Path) -> None:
+    from fallbench.scenario import Scenario
+    from fallbench.sim.world import build_world
+
+    def packaged(urdf: str) -> str:  # as ROS names them: package://<package>/<path inside it>
+        return urdf.replace(f"{TALOS.mesh_root}/talos_data/", "package://bot_description/")
+
+    cards = {}
+    for case in ("ok", "other_uri", "no_meshes"):  # a card path is read once a process
+        (tmp_path / case / "bot_description").mkdir(parents=True)
+        if case != "no_meshes":
+            (tmp_path / case / "bot_description" / "meshes").symlink_to(
+                TALOS.mesh_root / "talos_data" / "meshes"
+            )
+        uri = "other/" if case == "other_uri" else ""
+        cards[case] = renamed_talos(
+            tmp_path / case,
+            lambda text, uri=uri: text.replace("model: {", f"model: {{package_uri: '{uri}', "),
+            packaged,
+        )
+    world = build_world(Scenario(name="s", duration=1.0, robot=str(cards["ok"])))  # MuJoCo read every mesh
+    assert world.model.nmesh > 0
+    result = invoke("robots", "show", str(cards["other_uri"]))
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert ": model.package_uri: bot.urdf names mesh package://bot_description/meshes/" in result.output
+    result = invoke("robots", "show", str(cards["no_meshes"]))
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert ": model.urdf: bot.urdf names mesh package://bot_description/meshes/" in result.output
+    assert f"no file {tmp_path / 'no_meshes' / 'bot_description' / 'meshes'}" in result.output
 
 
 def test_the_run_identity_holds_the_card(tmp_path: Path) -> None:
@@ -203,3 +262,151 @@ def test_robots_check_passes_the_renamed_robot_and_says_why_others_fail(tmp_path
     )
     result = invoke("robots", "check", str(unlimited))
     assert result.exit_code == 1 and "problem: joint arm_left_2_joint has no range" in result.output
+
+
+@pytest.mark.parametrize(
+    "edit_card, edit_urdf, exit_code, says",
+    [
+        (
+            lambda card: card.replace("imu_body: base_link", "imu_body: imu_frame"),
+            None,
+            2,
+            ": imu_body: no body 'imu_frame' in bot.urdf",
+        ),
+        (
+            lambda card: card.replace("head: [head_1_link,", "head: [helmet_.*, head_1_link,"),
+            None,
+            2,
+            ": body_groups.head.0: 'helmet_.*' matches no body of bot.urdf",
+        ),
+        (
+            None,
+            lambda urdf: re.sub(r'type="(revolute|continuous)"', 'type="fixed"', urdf),
+            2,
+            ": model.urdf: bot.urdf has no revolute or continuous joint: nothing for a servo to drive",
+        ),
+        (
+            None,
+            lambda urdf: re.sub(
+                r'(<joint name="arm_left_2_joint" type="revolute">.*?effort=")[^"]*"',
+                r'\g<1>0"',
+                urdf,
+                count=1,
+                flags=re.S,
+            ),
+            1,
+            "problem: joint arm_left_2_joint has no torque limit",
+        ),
+    ],
+    ids=["imu body missing", "group matching nothing", "no actuated joint", "no torque limit"],
+)
+def test_robots_check_fails_with_the_reason(tmp_path: Path, edit_card, edit_urdf, exit_code, says) -> None:
+    card = renamed_talos(tmp_path, edit_card or (lambda text: text), edit_urdf or (lambda text: text))
+    result = invoke("robots", "check", str(card))
+    assert result.exit_code == exit_code and says in result.output, result.output
+    if exit_code == 2:  # a bad card: one line, before anything is compiled
+        assert len(result.output.strip().splitlines()) == 1 and result.output.startswith(f"error: {card}:")
+
+
+def test_disabled_collisions_auto_disables_the_pairs_touching_in_the_stance(tmp_path: Path) -> None:
+    from fallbench.results.robot_check import stance_scenario, touching_pairs
+    from fallbench.sim.world import build_world, stance_contacts
+
+    def without_srdf_pairs(folder: Path, entry: str) -> str:
+        folder.mkdir()
+        card = renamed_talos(folder, lambda text: text + (f"disabled_collisions: {entry}\n" if entry else ""))
+        srdf = folder / "bot.srdf"
+        srdf.write_text(re.sub(r"<disable_collisions[^>]*/>", "", srdf.read_text()))
+        return str(card)
+
+    bare = without_srdf_pairs(tmp_path / "bare", "")
+    touching = touching_pairs(build_world(stance_scenario(bare)), stance_scenario(bare))
+    assert ("base_link", "torso_2_link") in touching and (
+        "lower_left_1_link",
+        "lower_left_3_link",
+    ) in touching
+    auto = without_srdf_pairs(tmp_path / "auto", "[auto, [lower_left_1_link, lower_left_3_link]]")
+    assert get_robot(auto).disabled_collisions == (("lower_left_1_link", "lower_left_3_link"),)
+    assert set(stance_contacts(get_robot(auto))) == set(touching) - {
+        ("lower_left_1_link", "lower_left_3_link")
+    }
+    assert touching_pairs(build_world(stance_scenario(auto)), stance_scenario(auto)) == []
+    shown = invoke("robots", "show", auto)
+    assert "and those touching in the default stance (auto)" in shown.output
+
+
+def test_an_imu_site_is_a_frame_on_a_body(tmp_path: Path) -> None:
+    import math
+
+    import numpy as np
+
+    from fallbench.scenario import Scenario
+    from fallbench.sim.world import build_world, initial_state
+
+    site = "imu_site: {body: torso_2_link, pos: [0.04, 0.0, 0.1], rpy: [3.141592653589793, 0, 0]}"  # z down
+    (tmp_path / "site").mkdir()
+    card = renamed_talos(tmp_path / "site", lambda text: text.replace("imu_body: base_link", site))
+    scenario = Scenario(name="s", duration=1.0, robot=str(card), initial={"height": 0.5})
+    world = build_world(scenario)
+    imu = world.model.site("imu")
+    assert world.model.body(imu.bodyid[0]).name == "torso_2_link"
+    np.testing.assert_allclose(imu.pos, [0.04, 0.0, 0.1])
+    np.testing.assert_allclose(imu.quat, [math.cos(math.pi / 2), 1.0, 0.0, 0.0], atol=1e-12)
+    data = initial_state(world, scenario)
+    z_axis = data.site_xmat[imu.id].reshape(3, 3)[:, 2]  # the torso upright: the IMU's z points down
+    np.testing.assert_allclose(z_axis, [0.0, 0.0, -1.0], atol=0.05)
+    shown = invoke("robots", "show", str(card))
+    assert "IMU torso_2_link at [0.04, 0.0, 0.1] m" in shown.output
+    (tmp_path / "both").mkdir()
+    both = renamed_talos(
+        tmp_path / "both", lambda text: text.replace("imu_body: base_link", f"imu_body: base_link\n{site}")
+    )
+    result = invoke("robots", "show", str(both))
+    assert (
+        result.exit_code == 2
+        and ": imu_body: give the IMU as either `imu_body` or `imu_site`" in result.output
+    )
+
+
+def test_postures_from_the_keyframes_of_an_mjcf(tmp_path: Path) -> None:
+    """An MJCF of the robot (here compiled from its own URDF, as a model collection would ship it)
+    names postures by its <key>s; `default_posture` may take one."""
+    import mujoco
+
+    renamed_talos(tmp_path)  # the URDF, to make the MJCF from
+    spec = mujoco.MjSpec.from_string((tmp_path / "bot.urdf").read_text())
+    spec.worldbody.first_body().add_freejoint()
+    model = spec.compile()
+    qpos = model.qpos0.copy()
+    qpos[2] = 0.95  # root height
+    knee = model.jnt_qposadr[model.joint("lower_left_4_joint").id]
+    qpos[knee] = 1.0
+    key = spec.add_key()
+    key.name, key.qpos = "crouch", qpos.tolist()
+    spec.compile()
+    (tmp_path / "bot.xml").write_text(spec.to_xml())
+
+    def with_keys(text: str) -> str:
+        text = text.replace(
+            "model: {urdf: bot.urdf, srdf: bot.srdf}",
+            "model: {urdf: bot.urdf, srdf: bot.srdf, keyframes: bot.xml}",
+        )
+        return text.replace("default_posture: half_sitting", "default_posture: crouch")
+
+    (tmp_path / "keys").mkdir()
+    for name in ("bot.urdf", "bot.srdf", "bot.xml"):
+        (tmp_path / "keys" / name).write_text((tmp_path / name).read_text())
+    card = tmp_path / "keys" / "bot.yaml"
+    card.write_text(with_keys((tmp_path / "bot.yaml").read_text()))
+    bot = load_card(card)
+    assert (
+        bot.postures["crouch"]["lower_left_4_joint"] == 1.0
+        and bot.postures["crouch"]["lower_right_4_joint"] == 0.0
+    )
+    assert (
+        bot.postures["default"] == bot.postures["crouch"] and "half_sitting" in bot.postures
+    )  # the SRDF's too
+    assert bot.posture_base_height["crouch"] == pytest.approx(0.95)
+    (tmp_path / "keys" / "bot.xml").write_text(spec.to_xml().replace('name="crouch"', 'name=""'))
+    with pytest.raises(InputError, match=r"model.keyframes: bot.xml has no named keyframe"):
+        load_card(card)

@@ -106,7 +106,7 @@ def _one_run_each(family: Family, point: str, policy: str, chosen: str = "") -> 
 
 def _slim(rows: pd.DataFrame) -> pd.DataFrame:
     """The columns the figures of 002 read: fewer cells to hash and to send to a worker."""
-    return rows[[c for c in ("run_id", "robot", "point", "policy", "impact_time") if c in rows]]
+    return rows[[c for c in ("run_id", "robot", "robot_card", "point", "policy", "impact_time") if c in rows]]
 
 
 def forest_jobs(pooled: dict[str, list[Pool]], families: list[Family], out: Path) -> list[Figure]:

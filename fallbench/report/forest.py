@@ -219,8 +219,8 @@ class Pool:
     changes: pd.DataFrame
 
     def title(self, robot: str, total: int) -> str:
-        """ "talos: 10 of 18 families where the same arms ran" and, wrapped, which."""
-        head = f"{robot}: {len(self.families)} of {total} families where the same arms ran".lstrip(": ")
+        """ "talos: 10 of 18 families where the same arms ran:" and, wrapped, which."""
+        head = f"{robot}: {len(self.families)} of {total} families where the same arms ran:".lstrip(": ")
         return head + "\n" + "\n".join(textwrap.wrap(", ".join(self.families), 150))
 
 

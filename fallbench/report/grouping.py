@@ -7,13 +7,38 @@ from pathlib import Path
 import pandas as pd
 
 from fallbench.results import store
-from fallbench.robots import DEFAULT_ROBOT
+from fallbench.robots import DEFAULT_ROBOT, robot_names
 
 
 def with_robot(runs: pd.DataFrame) -> pd.DataFrame:
-    """Runs with a `robot` column (runs stored before it existed ran on the default robot)."""
-    robot = runs["robot"].fillna(DEFAULT_ROBOT) if "robot" in runs else DEFAULT_ROBOT
-    return runs.assign(robot=robot)
+    """Runs with a `robot` column that names the robot as the report shows it (`robot_names`: a
+    card's `name`, never its path; in the point labels too), and a `robot_card` column with the
+    robot as stored (the card's path), which the figures that read the robot's model use. Runs
+    stored before the `robot` column existed ran on the default robot."""
+    if "robot_card" in runs:  # named already
+        return runs
+    robot = (
+        runs["robot"].fillna(DEFAULT_ROBOT) if "robot" in runs else pd.Series(DEFAULT_ROBOT, index=runs.index)
+    )
+    names = robot_names(list(robot.unique()))
+    runs = runs.assign(robot=robot.map(names), robot_card=robot)
+    for stored, name in names.items():  # a card's point labels hold its path (`robot=<card>`) too
+        if stored != name:
+            mine = runs.robot_card == stored
+            for column in ("point", "group"):
+                if column in runs:
+                    runs.loc[mine, column] = runs.loc[mine, column].map(
+                        lambda label, stored=stored, name=name: named_point(label, stored, name)
+                    )
+    return runs
+
+
+def named_point(point: str, robot: str, name: str | None = None) -> str:
+    """A stored point label with its robot as the report names it (`robot=<card path>` becomes
+    `robot=<card name>`; `name`: the robot's name, by default `robot_names` of it alone)."""
+    if name is None:
+        name = robot_names([robot])[robot]
+    return point.replace(f"robot={robot}", f"robot={name}")
 
 
 RUN_KEY = ("robot", "scenario", "point", "seed", "physics_dt", "pre_impact", "policy")  # one fall

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 from ruamel.yaml import YAML
 
+from fallbench.report.grouping import named_point
 from fallbench.report.names import arm_name
 from fallbench.results import store
 from fallbench.scenario import Scenario
@@ -82,7 +83,8 @@ def load_replay(results: Path, run_id: str) -> Replay:
         )
     sampled = series[["t", *columns]].dropna()
     row = store.load_run_row(results, run_id)
-    label = f"{arm_name(row.pre_impact, row.policy)}, {row.point}"
+    point = named_point(str(row.point), str(row.robot)) if isinstance(row.get("robot"), str) else row.point
+    label = f"{arm_name(row.pre_impact, row.policy)}, {point}"
     return Replay(
         run_id,
         Scenario.model_validate(spec["scenario"]),

@@ -32,7 +32,7 @@ from fallbench.robots.description import RobotDescription
 from fallbench.robots.meshes import converted_meshes
 from fallbench.scenario import Scenario
 from fallbench.sim.events import tilt_deg
-from fallbench.sim.world import World, build_world, initial_state
+from fallbench.sim.world import World, build_world, initial_state, stance_contacts
 
 STAND_TIME = 2.0  # s standing under `stiff`
 MAX_DRIFT = 0.05  # m of base drift in the ground plane while standing
@@ -245,10 +245,18 @@ def _group_lines(world: World) -> tuple[list[str], list[str]]:
 def _contact_lines(world: World, scenario: Scenario) -> tuple[list[str], list[str]]:
     """The robot bodies touching in the stance, each pair a problem."""
     touching = touching_pairs(world, scenario)
-    line = "robot bodies touching in the default stance: " + (
-        ", ".join(f"{a}-{b}" for a, b in touching) or "none"
-    )
-    return [line], [
+    lines = [
+        "robot bodies touching in the default stance: "
+        + (", ".join(f"{a}-{b}" for a, b in touching) or "none")
+    ]
+    if world.robot.disable_stance_contacts:
+        auto = stance_contacts(world.robot)
+        lines.insert(
+            0,
+            "collision pairs disabled as touching in the default stance (disabled_collisions: auto): "
+            + (", ".join(f"{a}-{b}" for a, b in auto) or "none"),
+        )
+    return lines, [
         f"{a} and {b} touch in the default stance: add the pair to disabled_collisions" for a, b in touching
     ]
 
@@ -313,13 +321,15 @@ def describe(robot: str) -> list[str]:
         f"model: {r.urdf_path}" + (f", {r.srdf_path}" if r.srdf_path else "") + f" ({r.version})",
         f"fingerprint (card and model files): {r.fingerprint}",
         f"mass {r.mass:.2f} kg, standing height {r.standing_height:.3f} m",
-        f"bodies: root {r.root_body}, torso {r.torso_body}, IMU {r.imu_body}",
+        f"bodies: root {r.root_body}, torso {r.torso_body}, IMU {r.imu_body}"
+        + ("" if r.imu_pose is None else f" at {list(r.imu_pose[0])} m, quaternion {list(r.imu_pose[1])}"),
         f"postures: {', '.join(r.postures)}",
         "stiff gains (Nm/rad, Nms/rad): "
         + ", ".join(f"{g.pattern} {g.kp:g}/{g.kd:g}" for g in r.gain_groups),
         "learned-policy gains: "
         + (", ".join(f"{g.pattern} {g.kp:g}/{g.kd:g}" for g in r.learned_gain_groups) or "none"),
-        f"armature: {len(r.armature)} joints, disabled collision pairs: {len(r.disabled_collisions)}",
+        f"armature: {len(r.armature)} joints, disabled collision pairs: {len(r.disabled_collisions)}"
+        + (" and those touching in the default stance (auto)" if r.disable_stance_contacts else ""),
     ]
     lines += [f"body group {group}: {', '.join(bodies) or '-'}" for group, bodies in r.body_groups.items()]
     lines += [f"leg {side}: {', '.join(joints)}" for side, joints in r.legs.items()]

@@ -6,8 +6,10 @@ is one of those names or the path of a user's card (`robot: my_robot/card.yaml`)
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
-from functools import cache
+from collections import Counter
 from pathlib import Path
 
 from fallbench.robots.card import load_card
@@ -39,7 +41,7 @@ def robot_problem(robot: str) -> str | None:
     return None
 
 
-@cache
+@functools.cache  # (`cache` here would be the submodule fallbench.robots.cache once imported)
 def get_robot(robot: str) -> RobotDescription:
     """The robot of a shipped name or a card path; KeyError for an unknown name, InputError
     (file:line: key: reason) for a bad card."""
@@ -48,3 +50,23 @@ def get_robot(robot: str) -> RobotDescription:
     if is_card_path(robot):
         return load_card(Path(robot))
     raise KeyError(f"unknown robot {robot!r}; known: {', '.join(ROBOTS)}")
+
+
+def robot_names(robots: list[str]) -> dict[str, str]:
+    """What reports call each robot of `robots` (as runs carry them: shipped names, card paths):
+    a shipped robot by its name, a card by its `name` (the card file's stem when the card no
+    longer loads), so that figure files and page titles never hold a path. Two cards of the same
+    `name`, or a card named as a shipped robot, are told apart by a hash of their path."""
+    names = {robot: _card_name(robot) if is_card_path(robot) else robot for robot in robots}
+    taken = Counter(names.values())
+    for robot, name in names.items():
+        if is_card_path(robot) and (taken[name] > 1 or name in ROBOTS):
+            names[robot] = f"{name}-{hashlib.sha256(robot.encode()).hexdigest()[:6]}"
+    return names
+
+
+def _card_name(card: str) -> str:
+    try:
+        return get_robot(card).name
+    except (OSError, ValueError):  # the card moved or no longer loads: its runs keep a name
+        return Path(card).stem

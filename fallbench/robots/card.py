@@ -18,7 +18,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, distribution, version
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, ValidationError, field_validator
@@ -35,7 +35,9 @@ from fallbench.robots.description import (
     read_srdf_armature,
     read_srdf_disabled_collisions,
     read_srdf_postures,
+    resolve_package_uris,
 )
+from fallbench.robots.meshes import MeshError, mesh_file, mesh_names
 from fallbench.yamlfile import InputError, Strict, line_of, plain, read_yaml, validation_error
 
 CARD_SCHEMA_VERSION = 1  # of the card format; a card states the version it is written for
@@ -55,6 +57,7 @@ class ModelFiles(Strict):
 
     urdf: Name  # path relative to `root`
     srdf: Name | None = None  # optional: postures (group states), disabled collisions, rotor parameters
+    keyframes: Name | None = None  # optional: an MJCF of the robot whose named <key>s are postures
     package: Name | None = None  # installed Python distribution holding the files; default: the card's folder
     root: Name = "."  # folder inside `package` (or the card's folder) that the paths are relative to
     package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root`
@@ -69,6 +72,15 @@ class Inertia(Strict):
     iyy: float
     iyz: float
     izz: float
+
+
+class ImuSite(Strict):
+    """The IMU as a frame on a body: the accelerometer and gyro sit at `pos`, their axes turned by
+    `rpy` (the URDF's roll, pitch, yaw about the body's fixed x, y, z axes)."""
+
+    body: Name
+    pos: Axis = (0.0, 0.0, 0.0)  # m, in the body's frame
+    rpy: Axis = (0.0, 0.0, 0.0)  # rad
 
 
 class Gains(Strict):
@@ -131,14 +143,16 @@ class RobotCard(Strict):
     model: ModelFiles
     root_body: Name  # the floating base
     torso_body: Name  # whose tilt detects falls; pushed by default
-    imu_body: Name  # the accelerometer sits at its origin, axes aligned with it
+    imu_body: Name | None = None  # the accelerometer sits at its origin, axes aligned with it ...
+    imu_site: ImuSite | None = None  # ... or at a frame on a body (one of the two)
     standing_height: Annotated[float, Field(gt=0, le=10)]  # m, root height standing in `default`
     default_posture: Name | None = None  # the posture that is `default` (the nominal stance), by name
     postures: dict[Name, dict[Name, Radians]] = {}  # name -> joint -> rad (the SRDF's are added)
     gains: Annotated[dict[Name, Gains], Field(min_length=1)]  # joint regex -> stiff PD gains, first match
     learned_gains: dict[Name, Gains] = {}  # joint regex -> servo gains under a learned policy
     armature: dict[Name, Annotated[float, Field(ge=0, le=100)]] = {}  # joint or regex -> kg m^2
-    disabled_collisions: tuple[tuple[Name, Name], ...] = ()  # body pairs never in contact
+    # body pairs never in contact; `auto` (alone or as an entry): also the pairs touching in `default`
+    disabled_collisions: Literal["auto"] | tuple[Literal["auto"] | tuple[Name, Name], ...] = ()
     inertia_overrides: dict[Name, Inertia] = {}  # link -> tensor replacing the URDF's (a fix to its data)
     body_groups: BodyGroups
     legs: Legs
@@ -169,6 +183,17 @@ class Urdf:
     @property
     def actuated(self) -> tuple[str, ...]:
         return tuple(name for name, kind in self.joints.items() if kind in ACTUATED)
+
+
+def rpy_quaternion(rpy: tuple[float, float, float]) -> tuple[float, float, float, float]:
+    """(w, x, y, z) of the URDF's roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    (cr, sr), (cp, sp), (cy, sy) = ((np.cos(a / 2), np.sin(a / 2)) for a in rpy)
+    return (
+        float(cr * cp * cy + sr * sp * sy),
+        float(sr * cp * cy - cr * sp * sy),
+        float(cr * sp * cy + sr * cp * sy),
+        float(cr * cp * sy - sr * sp * cy),
+    )
 
 
 def card_key(field: str) -> str:
@@ -205,10 +230,16 @@ class CardReader:
         self.root, self.version = self._model_root()
         self.urdf_path = self._file("urdf", card.model.urdf)
         self.srdf_path = self._file("srdf", card.model.srdf) if card.model.srdf else None
+        self.keyframes_path = self._file("keyframes", card.model.keyframes) if card.model.keyframes else None
         try:
             self.urdf = read_urdf(self.urdf_path)
         except ET.ParseError as exc:
             raise self.error(("model", "urdf"), f"not a readable URDF ({exc})") from None
+        if not self.urdf.actuated:
+            raise self.error(
+                ("model", "urdf"),
+                f"{self.urdf_path.name} has no revolute or continuous joint: nothing for a servo to drive",
+            )
 
     def error(self, loc: tuple[Any, ...], reason: str) -> InputError:
         """The problem at `loc` (keys and list indices), at its line in the card."""
@@ -262,6 +293,7 @@ class CardReader:
     def description(self) -> RobotDescription:
         """The robot description the card gives, every name checked and every pattern expanded."""
         card = self.card
+        self._check_meshes()
         self._check_bodies()
         self._check_joints()
         body_groups = {
@@ -280,7 +312,10 @@ class CardReader:
             card_path=self.path,
             root_body=card.root_body,
             torso_body=card.torso_body,
-            imu_body=card.imu_body,
+            imu_body=card.imu_body if card.imu_site is None else card.imu_site.body,
+            imu_pose=None
+            if card.imu_site is None
+            else (card.imu_site.pos, rpy_quaternion(card.imu_site.rpy)),
             gain_groups=self._gains("gains", card.gains),
             learned_gain_groups=self._gains("learned_gains", card.learned_gains),
             body_groups=body_groups,
@@ -299,14 +334,42 @@ class CardReader:
             postures=postures,
             posture_base_height=heights,
             disabled_collisions=self._disabled_collisions(),
+            disable_stance_contacts="auto" in card.disabled_collisions,
             inertia_overrides=self._inertia_overrides(),
             torso_axes=(card.torso_axes.forward, card.torso_axes.left, card.torso_axes.up),
         )
 
+    def _check_meshes(self) -> None:
+        """Every mesh the URDF names is a file: a package URI resolved into `root` by
+        `package_uri`, a relative path from the URDF's folder, or an absolute path."""
+        model = self.card.model
+        for name in mesh_names(self.urdf_path.read_text()):
+            try:
+                path = mesh_file(
+                    resolve_package_uris(name, model.package_uri, self.root), self.urdf_path.parent
+                )
+            except MeshError:
+                raise self.error(
+                    ("model", "package_uri"),
+                    f"{self.urdf_path.name} names mesh {name}, which package_uri "
+                    f"{model.package_uri!r} does not resolve: set it to the URI's part "
+                    f"before the path inside root ({self.root})",
+                ) from None
+            if not path.is_file():
+                raise self.error(
+                    ("model", "urdf"), f"{self.urdf_path.name} names mesh {name}: no file {path}"
+                )
+
     def _check_bodies(self) -> None:
         card, links = self.card, self.urdf.links
-        for key in ("root_body", "torso_body", "imu_body"):
+        for key in ("root_body", "torso_body"):
             self.names((key,), (getattr(card, key),), links, "body")
+        if (card.imu_body is None) == (card.imu_site is None):
+            raise self.error(("imu_body",), "give the IMU as either `imu_body` or `imu_site`, one of the two")
+        if card.imu_site is not None:
+            self.names(("imu_site", "body"), (card.imu_site.body,), links, "body")
+        else:
+            self.names(("imu_body",), (card.imu_body,), links, "body")
         for side in SIDES:
             if card.feet is not None:
                 self.names(("feet", side), (getattr(card.feet, side),), links, "body")
@@ -314,7 +377,7 @@ class CardReader:
                 arm = getattr(card.arms, side)
                 for key in ("wrist_frame", "hand_frame"):
                     self.names(("arms", side, key), (getattr(arm, key),), links, "body")
-        for index, pair in enumerate(card.disabled_collisions):
+        for index, pair in enumerate(self._pairs()):
             self.names(("disabled_collisions", index), pair, links, "body")
 
     def _check_joints(self) -> None:
@@ -384,6 +447,10 @@ class CardReader:
         postures = {
             name: {j: v for j, v in joints.items() if j in actuated} for name, joints in postures.items()
         }
+        if self.keyframes_path is not None:
+            keys, key_heights = self._keyframes(self.keyframes_path, actuated)
+            postures.update(keys)
+            heights.update(key_heights)
         for name, joints in self.card.postures.items():
             for joint in joints:
                 self.names(("postures", name, joint), (joint,), self.urdf.actuated, "actuated joint")
@@ -400,6 +467,42 @@ class CardReader:
                 ("postures",), f"no posture {DEFAULT_POSTURE!r} (the nominal stance) nor `default_posture`"
             )
         heights[DEFAULT_POSTURE] = self.card.standing_height
+        return postures, heights
+
+    def _keyframes(
+        self, path: Path, actuated: set[str]
+    ) -> tuple[dict[str, dict[str, float]], dict[str, float]]:
+        """The named keyframes of the MJCF `model.keyframes` (as MuJoCo compiles it): posture name ->
+        the values of its hinge joints that are actuated joints of the URDF, and the height of its
+        free joint (the root) where it has one."""
+        import mujoco
+
+        loc = ("model", "keyframes")
+        try:
+            model = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as exc:
+            raise self.error(loc, f"MuJoCo cannot read {path.name}: {' '.join(str(exc).split())}") from None
+        postures, heights = {}, {}
+        for key in range(model.nkey):
+            name = model.key(key).name
+            if not name:
+                continue
+            qpos = model.key_qpos[key]
+            joints = {}
+            for joint in range(model.njnt):
+                address = model.jnt_qposadr[joint]
+                if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_FREE:
+                    heights[name] = float(qpos[address + 2])
+                elif (
+                    model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_HINGE
+                    and model.joint(joint).name in actuated
+                ):
+                    joints[model.joint(joint).name] = float(qpos[address])
+            if not joints:
+                raise self.error(loc, f"keyframe {name!r} sets no actuated joint of {self.urdf_path.name}")
+            postures[name] = joints
+        if not postures:
+            raise self.error(loc, f"{path.name} has no named keyframe")
         return postures, heights
 
     def _inertia_overrides(self) -> dict[str, tuple[float, ...]]:
@@ -421,14 +524,21 @@ class CardReader:
             overrides[link] = tensor
         return overrides
 
+    def _pairs(self) -> tuple[tuple[str, str], ...]:
+        """The card's disabled pairs (`auto` left out)."""
+        entries = self.card.disabled_collisions
+        return () if entries == "auto" else tuple(pair for pair in entries if pair != "auto")
+
     def _disabled_collisions(self) -> tuple[tuple[str, str], ...]:
         """The SRDF's disabled pairs, then the card's."""
         srdf = read_srdf_disabled_collisions(self.srdf_path) if self.srdf_path else ()
-        return srdf + self.card.disabled_collisions
+        return srdf + self._pairs()
 
     def _fingerprint(self) -> str:
         """Hash of the card and the model files: part of every run's identity."""
         digest = hashlib.sha256(self.path.read_bytes() + self.urdf_path.read_bytes())
         if self.srdf_path is not None:
             digest.update(self.srdf_path.read_bytes())
+        if self.keyframes_path is not None:
+            digest.update(self.keyframes_path.read_bytes())
         return digest.hexdigest()[:16]

@@ -55,7 +55,7 @@ class RobotDescription:
     version: str  # version of the package that ships the description
     root_body: str
     torso_body: str  # body whose tilt detects falls and which is pushed by default
-    imu_body: str  # the accelerometer sits at this body's origin, axes aligned with it
+    imu_body: str  # the accelerometer sits at this body's origin, axes aligned with it (or at `imu_pose`)
     gain_groups: tuple[GainGroup, ...]
     body_groups: dict[str, tuple[str, ...]]  # metric group -> bodies (feet, knees, hands, arms, torso, head)
     legs: dict[str, tuple[str, ...]]  # "left"/"right" -> joints from the hip to the ankle
@@ -76,6 +76,10 @@ class RobotDescription:
         default_factory=dict
     )  # m, root height standing in a posture
     disabled_collisions: tuple[tuple[str, str], ...] = ()  # body pairs that never collide
+    # the IMU's position (m) and orientation (w, x, y, z) in `imu_body`'s frame; None: its origin
+    imu_pose: tuple[tuple[float, float, float], tuple[float, float, float, float]] | None = None
+    # also disable the pairs touching in `default`, found when the robot is compiled (card: `auto`)
+    disable_stance_contacts: bool = False
     # Columns: the robot's forward, left and up directions in the torso body's frame.
     torso_axes: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     feet: dict[str, str] = field(
@@ -103,7 +107,7 @@ class RobotDescription:
         text = self.urdf_path.read_text()
         for link, tensor in self.inertia_overrides.items():
             text = override_inertia(text, link, tensor)
-        return re.sub(rf"package:///?{re.escape(self.package_prefix)}", str(self.mesh_root) + "/", text)
+        return resolve_package_uris(text, self.package_prefix, self.mesh_root)
 
     def default_gains(self, joint: str) -> tuple[float, float]:
         for group in self.gain_groups:
@@ -152,6 +156,11 @@ class RobotDescription:
     def standing_height(self) -> float:
         """m, root height standing in `default`: the robot's length scale."""
         return self.posture_base_height[DEFAULT_POSTURE]
+
+
+def resolve_package_uris(text: str, prefix: str, root: Path) -> str:
+    """A URDF's text with `package://<prefix>` URIs turned into paths inside `root`."""
+    return re.sub(rf"package:///?{re.escape(prefix)}", str(root) + "/", text)
 
 
 INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")

@@ -1,10 +1,13 @@
-"""COLLADA (.dae) meshes of a URDF, converted once to STL, the format MuJoCo reads.
+"""COLLADA (.dae) meshes of a URDF, converted once to STL, the format MuJoCo reads, and every
+mesh path made absolute.
 
 Many ROS description packages ship their meshes as COLLADA (Romeo's in example-robot-data), which
 MuJoCo cannot read. `mujoco_urdf_text` gives a robot's URDF with every `.dae` that a <mesh> names
 replaced by an STL file converted from it: the first time with trimesh (whose COLLADA reader is
 pycollada), afterwards from a cache keyed by the source file's sha256, so a changed mesh is
-converted again and an unchanged one never is. Meshes MuJoCo reads already are left as they are.
+converted again and an unchanged one never is. Meshes MuJoCo reads already are left as they are,
+but a relative path (or a file:// URI) is made absolute from the URDF's folder, as ROS reads it:
+MuJoCo reads the URDF from a string, which has no folder of its own.
 
 COLLADA is a large format (scene graphs of nodes with their own transforms, units, up axes,
 several primitive kinds); a maintained reader handles what the description packages actually
@@ -113,30 +116,49 @@ def convert_mesh(source: Path, folder: Path) -> ConvertedMesh:
     return ConvertedMesh(source, target, sha, cached=False)
 
 
+def mesh_names(urdf_text: str) -> list[str]:
+    """The distinct <mesh filename> values of a URDF, sorted."""
+    return sorted(
+        {m.attrib["filename"] for m in ET.fromstring(urdf_text).iter("mesh") if "filename" in m.attrib}
+    )
+
+
+def mesh_file(name: str, base_dir: Path) -> Path:
+    """The file a <mesh filename> names: a path (absolute, or relative to `base_dir`, the URDF's
+    folder) or a file:// URI; MeshError for a package URI (resolve those first)."""
+    if name.startswith("package://"):
+        raise MeshError(f"{name}: unresolved package URI")
+    return (base_dir / name.removeprefix("file://")).resolve()
+
+
 def convert_urdf_meshes(
     urdf_text: str, base_dir: Path, folder: Path | None = None
 ) -> tuple[str, tuple[ConvertedMesh, ...]]:
-    """`urdf_text` with each COLLADA <mesh filename> replaced by its STL's absolute path, and the
-    converted meshes (one per distinct file). Relative filenames are relative to `base_dir`;
-    package URIs must be resolved before. Only the filename attributes change: every other byte of
-    the text stays as it was."""
+    """`urdf_text` with each COLLADA <mesh filename> replaced by its STL's absolute path, each
+    other relative path or file:// URI by the file's absolute path, and the converted meshes (one
+    per distinct file). Relative filenames are relative to `base_dir`; package URIs must be
+    resolved before. Only those filename attributes change: every other byte of the text (an
+    absolute path too) stays as it was."""
     folder = (folder or cache_dir()).resolve()
-    names = {m.attrib["filename"] for m in ET.fromstring(urdf_text).iter("mesh") if "filename" in m.attrib}
     by_name: dict[str, ConvertedMesh] = {}
     by_source: dict[Path, ConvertedMesh] = {}
+    names = set(mesh_names(urdf_text))
     for name in sorted(names):
         if not name.lower().endswith(CONVERTED_SUFFIXES):
             continue
-        if name.startswith("package://"):
-            raise MeshError(f"{name}: unresolved package URI")
-        source = (base_dir / name.removeprefix("file://")).resolve()
+        source = mesh_file(name, base_dir)
         if source not in by_source:
             by_source[source] = convert_mesh(source, folder)
         by_name[name] = by_source[source]
 
     def replace(match: re.Match[str]) -> str:
-        mesh = by_name.get(match.group(2))
-        return match.group(0) if mesh is None else f"filename={match.group(1)}{mesh.target}{match.group(1)}"
+        quote, name = match.group(1), match.group(2)
+        mesh = by_name.get(name)
+        if mesh is not None:
+            return f"filename={quote}{mesh.target}{quote}"
+        if name not in names or name.startswith("package://") or Path(name).is_absolute():
+            return match.group(0)  # not a mesh (e.g. a <gazebo> plugin), or nothing to resolve
+        return f"filename={quote}{mesh_file(name, base_dir)}{quote}"
 
     return FILENAME.sub(replace, urdf_text), tuple(by_source.values())
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from fallbench.robots import get_robot, robot_problem
 from fallbench.robots.cache import cache_root
-from fallbench.robots.description import RobotDescription
+from fallbench.robots.description import DEFAULT_POSTURE, RobotDescription
 from fallbench.robots.meshes import mujoco_urdf_text
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scenario
 
@@ -152,15 +152,50 @@ def _set_options(spec: mujoco.MjSpec, scenario: Scenario) -> None:
 
 def _set_robot_contacts(spec: mujoco.MjSpec, robot: RobotDescription, scenario: Scenario) -> None:
     """Every robot geom collides with the scene and the robot, with the scenario's contact softness,
-    except the body pairs the robot's card (or its SRDF) disables."""
+    except the body pairs the robot's card (or its SRDF) disables, and with `disabled_collisions:
+    auto` those touching in the `default` stance."""
     for geom in spec.geoms:
         geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
         geom.condim = 3
         _soften(geom, scenario)
-    for body1, body2 in robot.disabled_collisions:
+    _exclude(spec, robot.disabled_collisions)
+    if robot.disable_stance_contacts:
+        _exclude(spec, stance_contacts(robot))
+
+
+def _exclude(spec: mujoco.MjSpec, pairs: tuple[tuple[str, str], ...]) -> None:
+    for body1, body2 in pairs:
         if spec.body(body1) is not None and spec.body(body2) is not None:
             exclude = spec.add_exclude()
             exclude.bodyname1, exclude.bodyname2 = body1, body2
+
+
+_STANCE_CONTACTS: dict[tuple[str, str], tuple[tuple[str, str], ...]] = {}
+
+
+def stance_contacts(robot: RobotDescription) -> tuple[tuple[str, str], ...]:
+    """Pairs of the robot's bodies whose collision geometry touches in the `default` stance, the
+    disabled pairs left out: what `disabled_collisions: auto` disables. The robot alone, compiled
+    as the world compiles it, posed in `default` (once per robot and card in a process)."""
+    key = (str(robot.card_path), robot.fingerprint)
+    if key not in _STANCE_CONTACTS:
+        spec = _robot_spec(robot)
+        spec.body(robot.root_body).add_freejoint()
+        for geom in spec.geoms:
+            geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
+        _exclude(spec, robot.disabled_collisions)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        for name, value in robot.postures[DEFAULT_POSTURE].items():
+            data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
+        mujoco.mj_forward(model, data)
+        bodies = (
+            (int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2]))
+            for c in data.contact[: data.ncon]
+        )
+        pairs = {tuple(sorted((model.body(a).name, model.body(b).name))) for a, b in bodies if a and b}
+        _STANCE_CONTACTS[key] = tuple(sorted(pairs))
+    return _STANCE_CONTACTS[key]
 
 
 def _add_scene(spec: mujoco.MjSpec, scenario: Scenario) -> None:
@@ -191,9 +226,12 @@ def _add_servos(spec: mujoco.MjSpec, robot: RobotDescription, contact: Contact) 
         actuator.target = joint.name
         actuator.trntype = mujoco.mjtTrn.mjTRN_JOINT
         actuator.set_to_position(kp=kp, kv=kd)
-        actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         limit = joint.actfrcrange[1]
-        actuator.forcerange = [-limit, limit]
+        if limit > 0:  # else no effort in the URDF: unclamped (`fallbench robots check` says so)
+            actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            actuator.forcerange = [-limit, limit]
+        else:
+            actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
         actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
 
 
@@ -211,6 +249,8 @@ def _add_state_sensors(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
     """IMU (accelerometer, gyro), the root body's pose and velocity, the whole robot's CoM."""
     imu = spec.body(robot.imu_body).add_site()
     imu.name = "imu"
+    if robot.imu_pose is not None:  # a card's `imu_site`
+        imu.pos, imu.quat = robot.imu_pose
     _add_sensors(
         spec,
         (("imu_acc", mujoco.mjtSensor.mjSENS_ACCELEROMETER), ("imu_gyro", mujoco.mjtSensor.mjSENS_GYRO)),

@@ -222,7 +222,7 @@ def draw_paper_figures(rows: pd.DataFrame, results: Path, out: Path, point: str)
     from fallbench.results import store
 
     robot = str(rows.robot.iloc[0]) if "robot" in rows else DEFAULT_ROBOT
-    leg, knee_limits, limits = leg_limits(robot)
+    leg, knee_limits, limits = leg_limits(str(rows.robot_card.iloc[0]) if "robot_card" in rows else robot)
     series = {row.policy: store.load_timeseries(results, row.run_id) for row in rows.itertuples()}
     needed = [*NEEDED_SERIES, *(f"q:{j}" for j in leg.values()), *(f"tau:{j}" for j in leg.values())]
     lacking = sorted({c for ts in series.values() for c in needed if c not in ts})

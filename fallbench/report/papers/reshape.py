@@ -217,7 +217,8 @@ def reshaped_fall_figure(runs: pd.DataFrame, results: Path, out: Path, point: st
     series = {s: store.load_timeseries(results, rows.loc[s, "run_id"]) for s in ("none", "reshape")}
     fig, axes = plt.subplots(1, 2, figsize=(15, 4.5), gridspec_kw={"width_ratios": [3, 2]})
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for (joint, label), c in zip(get_robot(rows.loc["reshape", "robot"]).trajectory_joints.items(), colours):
+    robot = get_robot(rows.loc["reshape", "robot_card" if "robot_card" in rows else "robot"])
+    for (joint, label), c in zip(robot.trajectory_joints.items(), colours):
         for strategy, ts in series.items():
             axes[0].plot(
                 ts.t,
