@@ -183,6 +183,9 @@ def _check_backend(backend: str, scheduler: str | None) -> None:
 def _sweep_summary(table, reports: Path):
     """Medians per (robot, scenario, strategy, policy) with run and failure counts, also written to
     `reports/sweep_summary.md`."""
+    from fallbench.robots import robot_names  # a card's robot by its name, as the report names it
+
+    table = table.assign(robot=table.robot.map(robot_names(list(table.robot.unique()))))
     keys = ["robot", "scenario", "pre_impact", "policy"]
     measured = [column for column in SUMMARY_COLUMNS if column in table]  # none if every run failed
     summary = table.groupby(keys)[measured].median(numeric_only=True)
