@@ -21,8 +21,8 @@ LAYERS: list[set[str]] = [
     {"scenario"},
     {"dynamics"},
     {"sim"},
+    {"analysis"},  # measures of a recorded fall, generic: they know no strategy or policy
     {"preimpact", "postimpact"},
-    {"analysis"},
     {"registry"},
     {"environment"},  # the Gymnasium environment: drives the registry's worlds through sim's episode
     {"results"},

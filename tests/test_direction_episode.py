@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.preimpact.direction.outcome import obstacle_metrics
+from fallbench.analysis.obstacles import obstacle_metrics
 from fallbench.registry import load, simulate_named
 from fallbench.scenario import Scenario
 from fallbench.sim.impacts import ImpactEvent

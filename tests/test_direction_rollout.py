@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.preimpact.direction.geometry import angle_between
+from fallbench.analysis.safe_regions import angle_between
 from fallbench.preimpact.direction.oracle import SAVED
 from fallbench.preimpact.direction.rollout import predict_by_rollout
 from fallbench.preimpact.direction.strategy import DirectionStrategy

@@ -15,9 +15,9 @@ import numpy as np
 import pandas as pd
 
 from fallbench.analysis.detection import detection_metrics
+from fallbench.analysis.obstacles import com_path, fall_origin, obstacle_metrics
 from fallbench.analysis.sensors import FORCE_WINDOW, ImuModel, window_mean_peak
 from fallbench.dynamics.fall_direction import fall_class, horizontal_unit
-from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
 from fallbench.sim.events import METHODS
 from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.sim.recorder import Recording
@@ -391,17 +391,12 @@ CONTROLLER_DEFAULTS: dict[str, object] = {
 
 
 def _controller_statistics(rec: Recording, row: dict[str, object]) -> dict[str, object]:
-    """The policy's and strategy's own statistics, and 004's outcome among objects (every strategy)."""
+    """The policy's and strategy's own statistics, and the outcome among objects (every strategy)."""
     stats: dict[str, object] = dict(CONTROLLER_DEFAULTS) | rec.policy_stats
     if rec.strategy is not None:
         stats.update(rec.strategy.metrics(rec))
     if rec.scenario.obstacles:
-        origin = stats.get("control_trigger_time", rec.fall_time)
-        stats.update(obstacle_metrics(rec, origin if origin == origin else rec.fall_time))
-        if "predicted_fall_direction_deg" in stats:
-            stats["fall_direction_error_deg"] = direction_error_deg(
-                stats["predicted_fall_direction_deg"], stats["actual_fall_direction_deg"]
-            )
+        stats.update(obstacle_metrics(rec, fall_origin(stats, rec)))
     return stats
 
 
