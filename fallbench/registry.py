@@ -131,6 +131,29 @@ STRATEGIES: dict[str, type[Strategy]] = Registry(
 NO_POLICY = "-"  # the policy of a whole-fall controller's runs: it never hands its motors over
 
 
+def stat_columns() -> dict[str, Any]:
+    """The columns every run's row has, whichever controllers ran: each registered policy's and
+    strategy's `stat_columns`, in registration order, with the value of the runs it did not take
+    part in. Two that declare one column must agree on its value."""
+    columns: dict[str, Any] = {}
+    owner: dict[str, str] = {}
+    for name, cls in [*POLICIES.items(), *STRATEGIES.items()]:
+        for column, default in cls.stat_columns.items():
+            if column in columns and not _same(columns[column], default):
+                raise ValueError(
+                    f"{name!r} declares the stat column {column!r} = {default!r}, "
+                    f"{owner[column]!r} = {columns[column]!r}"
+                )
+            columns.setdefault(column, default)
+            owner.setdefault(column, name)
+    return columns
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal values, NaN equal to NaN."""
+    return bool(a == b) or (a != a and b != b)
+
+
 def run_policy(pre_impact: str, policy: str) -> str:
     """The gain policy a run of `pre_impact` carries: `policy`, or `-` for a whole-fall controller."""
     strategy = STRATEGIES.get(pre_impact)
@@ -242,4 +265,4 @@ def simulate_named(scenario: Scenario, policy: str, pre_impact: str = "none") ->
         "stiff" if policy == NO_POLICY else policy, world, scenario
     )
     strategy = STRATEGIES.create(pre_impact, world, scenario)  # type: ignore[attr-defined]
-    return run_episode(world, scenario, gain_policy, strategy, pre_impact)
+    return run_episode(world, scenario, gain_policy, strategy, pre_impact, stat_columns())

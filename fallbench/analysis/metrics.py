@@ -374,25 +374,10 @@ def _outcome(rec: Recording) -> dict[str, object]:
     }
 
 
-# Columns every row has, whichever controllers ran (theirs overwrite them).
-CONTROLLER_DEFAULTS: dict[str, object] = {
-    "qp_solve_ms_median": float("nan"),
-    "qp_solve_ms_p99": float("nan"),
-    "qp_failures": 0,
-    "preimpact_qp_ms_median": float("nan"),
-    "preimpact_qp_ms_p99": float("nan"),
-    "preimpact_qp_solve_ms_median": float("nan"),
-    "preimpact_qp_solve_ms_p99": float("nan"),
-    "preimpact_qp_failures": 0,
-    "preimpact_qp_steps": 0,
-    "fall_class_at_detection": "",
-    "fall_class_before_impact": "",
-}
-
-
 def _controller_statistics(rec: Recording, row: dict[str, object]) -> dict[str, object]:
-    """The policy's and strategy's own statistics, and the outcome among objects (every strategy)."""
-    stats: dict[str, object] = dict(CONTROLLER_DEFAULTS) | rec.policy_stats
+    """The policy's and strategy's own statistics over the columns every row has (what every
+    registered controller declared, `Recording.stat_columns`), and the outcome among objects."""
+    stats: dict[str, object] = dict(rec.stat_columns) | rec.policy_stats
     if rec.strategy is not None:
         stats.update(rec.strategy.metrics(rec))
     if rec.scenario.obstacles:

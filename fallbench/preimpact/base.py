@@ -49,6 +49,10 @@ class Strategy(ABC):
     # Parts of the robot description it cannot work without (RobotDescription field names): a robot
     # whose card leaves one out is refused when scenarios load, before any run.
     robot_needs: tuple[str, ...] = ()
+    # Columns of its `stats` and `metrics` that every run's row carries, whichever strategy ran, with
+    # the value of the runs it did not take part in (the registry collects them; other columns of
+    # its own appear only in its runs' rows).
+    stat_columns: dict[str, Any] = {}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         self.params = resolved_params(

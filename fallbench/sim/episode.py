@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -172,6 +172,7 @@ class Episode:
         policy: PostImpactController,
         strategy: PreImpactController,
         pre_impact: str,
+        stat_columns: dict[str, Any] | None = None,
     ) -> None:
         self.world, self.scenario, self.policy, self.strategy, self.pre_impact = (
             world,
@@ -180,6 +181,7 @@ class Episode:
             strategy,
             pre_impact,
         )
+        self.stat_columns = stat_columns or {}  # the recording's (`Recording.stat_columns`)
         model = world.model
         self.data = data = initial_state(world, scenario)
         self.per_control = scenario.physics_steps_per_control
@@ -543,6 +545,7 @@ class Episode:
             contact_times={body: c.t for body, c in self.impacts.first_contacts.items()},
             landing_errors=self.landing_errors(),
             policy_stats=self.policy.stats() | self.strategy.stats(),
+            stat_columns=self.stat_columns,
             strategy=self.strategy,
             switch_time=self.takeover.time,
             policy_failure_times=self.policy.failure_times(),
@@ -560,7 +563,9 @@ def run_episode(
     policy: PostImpactController,
     strategy: PreImpactController,
     pre_impact: str = "none",
+    stat_columns: dict[str, Any] | None = None,
 ) -> Recording:
-    """Simulate one fall; `world` is built from `scenario` (with the baseline gains the run uses) and
-    `pre_impact` names the strategy in the recording."""
-    return Episode(world, scenario, policy, strategy, pre_impact).run()
+    """Simulate one fall; `world` is built from `scenario` (with the baseline gains the run uses),
+    `pre_impact` names the strategy in the recording, and `stat_columns` are the columns every run's
+    row has (`Recording.stat_columns`)."""
+    return Episode(world, scenario, policy, strategy, pre_impact, stat_columns).run()

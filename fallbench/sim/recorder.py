@@ -56,6 +56,9 @@ class Recording:
         default_factory=dict
     )  # m per arm side, chosen BIP to wrist contact
     policy_stats: dict[str, float] = field(default_factory=dict)
+    # the columns every run's row has, with their values where the controllers that ran give none:
+    # every registered strategy's and policy's `stat_columns` (collected by the registry)
+    stat_columns: dict[str, Any] = field(default_factory=dict)
     strategy: OutcomeMetrics | None = None  # the pre-impact strategy, for its own metrics
     policy_failure_times: list[float] = field(default_factory=list)  # s, control steps whose policy QP failed
     steps: int = 0

@@ -22,6 +22,16 @@ class ReshapeStrategy(Strategy):
     per_chain_switching = True
     choices = {"pivot": PIVOTS, "solver": QP_SOLVERS}
     robot_needs = ("arms",)  # the hands it places on the floor
+    stat_columns: dict[str, Any] = {  # the controller's `stats`
+        "preimpact_qp_ms_median": float("nan"),
+        "preimpact_qp_ms_p99": float("nan"),
+        "preimpact_qp_solve_ms_median": float("nan"),
+        "preimpact_qp_solve_ms_p99": float("nan"),
+        "preimpact_qp_failures": 0,
+        "preimpact_qp_steps": 0,
+        "fall_class_at_detection": "",
+        "fall_class_before_impact": "",
+    }
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
