@@ -15,7 +15,6 @@ fallbench's own modules (its base classes) without a circular import.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Iterator
 from importlib.metadata import entry_points
@@ -26,7 +25,7 @@ from fallbench.postimpact.adaptive_qp.policy import AdaptiveQPPolicy
 from fallbench.postimpact.adaptive_qp_hold import AdaptiveQPHoldPolicy
 from fallbench.postimpact.base import GainPolicy
 from fallbench.postimpact.oneshot import OneshotPolicy
-from fallbench.postimpact.stiff import StiffPolicy, gain_scale
+from fallbench.postimpact.stiff import StiffPolicy
 from fallbench.postimpact.zero import ZeroPolicy
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.strategy import DirectionStrategy
@@ -36,6 +35,7 @@ from fallbench.preimpact.reshape.strategy import ReshapeStrategy
 from fallbench.robots import get_robot
 from fallbench.robots.card import card_key
 from fallbench.scenario import Scenario, ScenarioPoint, load_scenarios
+from fallbench.sim.baseline import gain_scale, with_gain_scale
 from fallbench.sim.episode import run_episode
 from fallbench.sim.recorder import Recording
 from fallbench.sim.world import World, build_world, check_scene
@@ -244,13 +244,7 @@ def run_world(scenario: Scenario) -> World:
     """The world a run simulates: the scenario's, with its default gains times
     `policy_params.stiff.gain_scale`, the baseline stiffness every policy uses before impact
     (and `stiff` after)."""
-    world = build_world(scenario)
-    scale = gain_scale(scenario)
-    if scale == 1.0:
-        return world
-    return dataclasses.replace(
-        world, default_kp=world.default_kp * scale, default_kd=world.default_kd * scale
-    )
+    return with_gain_scale(build_world(scenario), gain_scale(scenario))
 
 
 def simulate_named(scenario: Scenario, policy: str, pre_impact: str = "none") -> Recording:
