@@ -65,7 +65,7 @@ def fail(message: str, code: int = 2) -> None:
 
 def _load(files: list[Path], robot: str | None = None) -> list[ScenarioPoint]:
     try:
-        from fallbench.registry import load
+        from fallbench.checks import load
 
         return load(list(files), robot)
     except ScenarioError as exc:
@@ -115,7 +115,7 @@ def _with_params(points: list[ScenarioPoint], settings: list[str]) -> list[Scena
 
     from ruamel.yaml import YAML
 
-    from fallbench.registry import check_controllers
+    from fallbench.checks import check_controllers
     from fallbench.scenario import Scenario
 
     if not settings:
@@ -146,7 +146,7 @@ def _with_params(points: list[ScenarioPoint], settings: list[str]) -> list[Scena
 def _check_strategies(points: list[ScenarioPoint], strategies: list[str]) -> None:
     """The strategies' own checks (an ONNX model that must fit the robot) on every point they will
     run on, before any run: one `error:` line and exit 2 on the first problem."""
-    from fallbench.registry import check_strategies
+    from fallbench.checks import check_strategies
 
     checked: set[tuple[str, str]] = set()
     for point in points:

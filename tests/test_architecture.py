@@ -23,7 +23,7 @@ LAYERS: list[set[str]] = [
     {"sim"},
     {"analysis"},  # measures of a recorded fall, generic: they know no strategy or policy
     {"preimpact", "postimpact"},
-    {"registry"},
+    {"registry", "checks", "assembly"},  # the plug-in registry, the checks that need it, a run put together
     {"environment"},  # the Gymnasium environment: drives the registry's worlds through sim's episode
     {"results"},
     {"report"},

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fallbench.registry import load
+from fallbench.checks import load
 from fallbench.results.bench import _sweep_file
 
 

@@ -12,7 +12,8 @@ import pytest
 
 from fallbench.analysis.metrics import compute_metrics
 from fallbench.analysis.obstacles import obstacle_metrics
-from fallbench.registry import load, simulate_named
+from fallbench.assembly import simulate_named
+from fallbench.checks import load
 from fallbench.scenario import Scenario
 from fallbench.sim.impacts import ImpactEvent
 from fallbench.sim.recorder import Recording

@@ -172,7 +172,7 @@ def test_a_pendulum_falling_back_over_its_polygon_is_a_fall_that_stops() -> None
 
 
 def test_layout_yaw_turns_the_obstacles_about_the_robot(tmp_path) -> None:
-    from fallbench.registry import check_scenario
+    from fallbench.checks import check_scenario
     from fallbench.scenario import load_scenario_file
 
     path = tmp_path / "turned.yaml"

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.registry import simulate_named
+from fallbench.assembly import simulate_named
 from fallbench.scenario import Push, Scenario
 from fallbench.sim.episode import make_fall_detector
 from fallbench.sim.events import (

@@ -39,8 +39,9 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.assembly import simulate_named
+from fallbench.checks import load
 from fallbench.dynamics.dense_qp import QP_SOLVERS
-from fallbench.registry import load, simulate_named
 from fallbench.results.runner import Outcome, RunSpec, expected_cost, simulate, store_outcome
 from fallbench.results.series import DEFAULT_TIMESERIES, TIMESERIES_MODES
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Scenario, ScenarioPoint
