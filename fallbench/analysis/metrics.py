@@ -227,10 +227,6 @@ def impact_metrics(rec: Recording) -> dict[str, object]:
     singular = sorted({j for e in first for j in e.singular})
     row["singular_joints_first_impact"] = len(singular)
     row["singular_joints_first_impact_names"] = ",".join(singular)
-    errors = rec.landing_errors
-    for side in ("left", "right"):
-        row[f"landing_error_{side}"] = errors.get(side, float("nan"))
-    row["landing_error"] = float(np.mean(list(errors.values()))) if errors else float("nan")
     row["fall_direction_deg"], row["fall_class"] = fall_class_at_impact(rec)
     landing = touches(rec.world, rec.contact_times)
     row["first_impact_prescribed"] = first_impact_prescribed(landing, str(row["fall_class"]))

@@ -15,7 +15,6 @@ from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, Any
 
 import mujoco
-import numpy as np
 
 from fallbench.scenario import resolved_params
 from fallbench.sim.servo import ServoCommand
@@ -84,10 +83,6 @@ class Strategy(ABC):
     def planned_contacts(self) -> set[str]:
         """Robot bodies whose new contacts with the environment are planned (not impacts)."""
         return set()
-
-    def landing_target(self, side: str, t: float) -> np.ndarray | None:
-        """The point (m, world) this arm's hand was aimed at, last chosen at or before t, if any."""
-        return None
 
     def stats(self) -> dict[str, Any]:
         """Per-episode controller figures (timings, failures) stored with the metrics."""
