@@ -10,12 +10,12 @@ import pytest
 import scipy.linalg
 
 import fallbench.postimpact.adaptive_qp.policy as adaptive
+from fallbench.assembly import simulate_named
 from fallbench.dynamics.contacts import environment_contacts
 from fallbench.dynamics.dense_qp import QP_SOLVERS, make_solver
 from fallbench.dynamics.model import select_motors
 from fallbench.dynamics.terms import model_terms
 from fallbench.postimpact.adaptive_qp.qp import QPConfig, build_problem
-from fallbench.registry import simulate_named
 from fallbench.scenario import Scenario
 
 TOL = 1e-4  # relative to the largest term of each row

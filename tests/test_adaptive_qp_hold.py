@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.assembly import run_world, simulate_named
 from fallbench.postimpact.adaptive_qp.policy import AdaptiveQPPolicy
 from fallbench.postimpact.adaptive_qp_hold import (
     AdaptiveQPHoldPolicy,
@@ -15,7 +16,7 @@ from fallbench.postimpact.adaptive_qp_hold import (
     blend_weight,
     blended_reference,
 )
-from fallbench.registry import POLICIES, run_world, simulate_named
+from fallbench.registry import POLICIES
 from fallbench.scenario import Scenario
 
 G1_DROP = Scenario(name="drop", robot="g1", initial={"height": 0.5})  # stiff stands, adaptive_qp falls

@@ -1,5 +1,6 @@
 """The package's shape: imports flow one way, from the CLI down to the robots and the YAML reader;
-no file over 500 lines, no function over 60; every module named in docs/architecture.md.
+no file over 500 lines, no function over 60; every module named in docs/architecture.md;
+the generic layers know no specific strategy or policy, and the report no shipped scenario.
 
 Every import counts (module level, function-local and `TYPE_CHECKING` ones): a deferred import is a
 design dependency all the same.
@@ -16,14 +17,16 @@ from functools import cache
 from pathlib import Path
 
 import pytest
+from ruamel.yaml import YAML
 
 PACKAGE = Path(__file__).resolve().parents[1] / "fallbench"
 ARCHITECTURE = PACKAGE.parent / "docs" / "architecture.md"
 MAX_FILE_LINES = 500
 MAX_FUNCTION_LINES = 60  # of a body: the lines after the signature (`def ...:`, however many lines it takes)
-# Files over MAX_FILE_LINES that work under way splits (issue 37: sim/world.py into scene building and
-# caches, the episode's strategy specifics out of sim/episode.py); remove each once it is under.
-LONG_FILES = {"sim/world.py", "sim/episode.py"}
+# Files over MAX_FILE_LINES that a split under way will bring under (sim/world.py: scene building
+# apart from the caches); remove each once it is under.
+LONG_FILES = {"sim/world.py"}
+SCENARIOS = PACKAGE.parent / "scenarios"
 
 # Lowest first: a package may import only from packages before it (or itself).
 LAYERS: list[set[str]] = [
@@ -32,9 +35,9 @@ LAYERS: list[set[str]] = [
     {"scenario"},
     {"dynamics"},
     {"sim"},
+    {"analysis"},  # measures of a recorded fall, generic: they know no strategy or policy
     {"preimpact", "postimpact"},
-    {"analysis"},
-    {"registry"},
+    {"registry", "checks", "assembly"},  # the plug-in registry, the checks that need it, a run put together
     {"environment"},  # the Gymnasium environment: drives the registry's worlds through sim's episode
     {"results"},
     {"bench"},  # `fallbench bench`: times the environment, the runner and the store
@@ -247,3 +250,131 @@ def test_every_module_is_named_in_the_architecture_page():
         )
     ]
     assert missing == [], f"modules docs/architecture.md does not name: {missing}"
+
+
+# Layers that serve every strategy and policy alike: they may use the interfaces (`base`), never a
+# specific strategy or policy package (`preimpact.reshape`, `postimpact.adaptive_qp`, ...).
+GENERIC = ("analysis", "sim", "results")
+INTERFACES = {
+    "fallbench.preimpact",
+    "fallbench.postimpact",
+    "fallbench.preimpact.base",
+    "fallbench.postimpact.base",
+}
+
+
+def specific_controllers(imported: set[str]) -> list[str]:
+    """The imported modules that belong to a specific strategy or policy."""
+    return sorted(
+        name
+        for name in imported
+        if name.split(".")[1:2] in (["preimpact"], ["postimpact"]) and name not in INTERFACES
+    )
+
+
+def test_specific_controllers_are_told_apart_from_interfaces():
+    imported = {"fallbench.preimpact.base", "fallbench.postimpact.adaptive_qp.policy", "fallbench.sim.world"}
+    assert specific_controllers(imported) == ["fallbench.postimpact.adaptive_qp.policy"]
+
+
+@pytest.mark.parametrize(
+    "module", sorted(m for m in import_graph() if m.split(".")[1:2] and m.split(".")[1] in GENERIC)
+)
+def test_generic_layers_know_no_specific_controller(module):
+    specific = specific_controllers(import_graph()[module])
+    assert specific == [], f"{module} imports a specific strategy or policy: {specific}"
+
+
+# The report selects runs by what the store holds, never by a scenario's name (report/selection.py).
+SELECTING_CALLS = {"isin", "startswith", "endswith", "contains", "match", "fullmatch", "query"}
+
+
+@cache
+def shipped_scenario_names() -> frozenset[str]:
+    """The `name` of every document of the shipped scenario files (scenarios/*.yaml)."""
+    yaml = YAML(typ="safe", pure=True)
+    return frozenset(
+        str(document["name"])
+        for path in sorted(SCENARIOS.glob("*.yaml"))
+        for document in yaml.load_all(path.read_text())
+        if isinstance(document, dict) and "name" in document
+    )
+
+
+def _strings(node: ast.AST) -> list[ast.Constant]:
+    """The string constants of an expression, inside lists, tuples and sets too."""
+    if isinstance(node, (ast.List, ast.Tuple, ast.Set)):
+        return [s for element in node.elts for s in _strings(element)]
+    return [node] if isinstance(node, ast.Constant) and isinstance(node.value, str) else []
+
+
+def scenario_names_in(source: str, names: frozenset[str]) -> list[tuple[int, str]]:
+    """(line, name) of each shipped scenario `source` names: a string (docstrings aside) holding a
+    name that is no plain word (it has an underscore or a digit), or the start of one (`"dir_fig"`,
+    `"ci_"`); and any name at all, plain words too (`drop`), where a string is compared or selects
+    (`==`, `.isin`, `.str.startswith`, ...)."""
+    tree = ast.parse(source)
+    docstrings = {
+        id(node.body[0].value)
+        for node in ast.walk(tree)
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+        and node.body
+        and isinstance(node.body[0], ast.Expr)
+        and isinstance(node.body[0].value, ast.Constant)
+    }
+    selecting: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            selecting |= {id(s) for operand in [node.left, *node.comparators] for s in _strings(operand)}
+        elif isinstance(node, ast.Call) and getattr(node.func, "attr", None) in SELECTING_CALLS:
+            selecting |= {id(s) for argument in node.args for s in _strings(argument)}
+    identifiers = [n for n in names if "_" in n or any(c.isdigit() for c in n)]
+    found = []
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Constant) and isinstance(node.value, str)) or id(node) in docstrings:
+            continue
+        tokens = re.findall(r"[A-Za-z0-9_]+", node.value)
+        for token in tokens:
+            hits = [n for n in identifiers if _names(token, n)]
+            if id(node) in selecting:
+                hits += [n for n in names if token == n]
+            found += [(node.lineno, n) for n in sorted(set(hits))]
+    return found
+
+
+def _names(token: str, name: str) -> bool:
+    """Whether a token of a string is this scenario name, or (with an underscore) its start."""
+    if token == name:
+        return True
+    if "_" not in token or not name.startswith(token):
+        return False
+    return token.endswith("_") or name[len(token)] == "_" or name[len(token)].isdigit()
+
+
+def test_the_scenario_name_finder_sees_names():
+    names = frozenset({"dir_fig1", "dir_fig10", "drop", "ci_push"})
+    source = '''"""About dir_fig1 (a docstring)."""
+MIRRORS = "dir_fig"
+A = "dir_fig10"
+B = runs[runs.scenario == "drop"]
+C = runs[runs.point.str.startswith("ci_")]
+D = "(no drop runs)"
+E = rows.drop(columns="x")
+'''
+    assert scenario_names_in(source, names) == [
+        (2, "dir_fig1"),
+        (2, "dir_fig10"),
+        (3, "dir_fig10"),
+        (4, "drop"),
+        (5, "ci_push"),
+    ]
+
+
+def test_shipped_scenario_names_are_read():
+    assert {"drop", "dir_fig1", "ci_push"} <= shipped_scenario_names()
+
+
+@pytest.mark.parametrize("path", sorted(PACKAGE.joinpath("report").rglob("*.py")), ids=lambda p: p.name)
+def test_the_report_names_no_shipped_scenario(path):
+    found = scenario_names_in(path.read_text(), shipped_scenario_names())
+    assert found == [], f"{path.relative_to(PACKAGE.parent)} names shipped scenarios (line, name): {found}"

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fallbench.bench.commands import _sweep_file
-from fallbench.registry import load
+from fallbench.checks import load
 
 
 def test_sweep_file_mixes_shipped_drops_and_pushes(tmp_path: Path) -> None:

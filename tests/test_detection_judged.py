@@ -12,7 +12,7 @@ import pytest
 
 from fallbench.analysis.detection import column, detection_table, fire_time
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.registry import simulate_named
+from fallbench.assembly import simulate_named
 from fallbench.scenario import Push, Scenario
 from fallbench.sim.events import FallWatch
 

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.preimpact.direction.outcome import obstacle_metrics
-from fallbench.registry import load, simulate_named
+from fallbench.analysis.obstacles import obstacle_metrics
+from fallbench.assembly import simulate_named
+from fallbench.checks import load
 from fallbench.scenario import Scenario
 from fallbench.sim.impacts import ImpactEvent
 from fallbench.sim.recorder import Recording

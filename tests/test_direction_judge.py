@@ -12,9 +12,9 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+from fallbench.analysis.safe_regions import SafeRegion, needed_deflection
 from fallbench.cli import app
 from fallbench.preimpact.direction.candidates import Candidate
-from fallbench.preimpact.direction.geometry import SafeRegion, needed_deflection
 from fallbench.preimpact.direction.selection import Forced, choose
 from fallbench.report.papers.direction_judge import (
     authority_runs,

@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
+from fallbench.analysis.safe_regions import Circle, safe_regions, score
 from fallbench.preimpact.direction.candidates import FallState, predict
-from fallbench.preimpact.direction.geometry import Circle, safe_regions
 from fallbench.preimpact.direction.pendulum import rollout
-from fallbench.preimpact.direction.scoring import desired_direction, score
+from fallbench.preimpact.direction.scoring import desired_direction
 from fallbench.preimpact.direction.support import nearest_pivot
 from fallbench.preimpact.direction.trigger import ControlTrigger
 from fallbench.sim.events import support_polygon
@@ -172,7 +172,7 @@ def test_a_pendulum_falling_back_over_its_polygon_is_a_fall_that_stops() -> None
 
 
 def test_layout_yaw_turns_the_obstacles_about_the_robot(tmp_path) -> None:
-    from fallbench.registry import check_scenario
+    from fallbench.checks import check_scenario
     from fallbench.scenario import load_scenario_file
 
     path = tmp_path / "turned.yaml"

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.preimpact.direction.geometry import angle_between
+from fallbench.analysis.safe_regions import angle_between
+from fallbench.assembly import simulate_named
 from fallbench.preimpact.direction.oracle import SAVED
 from fallbench.preimpact.direction.rollout import predict_by_rollout
 from fallbench.preimpact.direction.strategy import DirectionStrategy
-from fallbench.registry import simulate_named
 from fallbench.scenario import Scenario
 
 STEP = Scenario(  # a forced step in free space (the far post only makes the outcome metrics run)

@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.registry import simulate_named
+from fallbench.assembly import simulate_named
 from fallbench.scenario import Push, Scenario
-from fallbench.sim.episode import make_fall_detector
 from fallbench.sim.events import (
     CapturePointDetector,
     FallDetector,
@@ -20,6 +19,7 @@ from fallbench.sim.events import (
     ImpactDetector,
     TiltDetector,
     capture_point,
+    make_fall_detector,
     signed_distance,
     support_polygon,
 )

@@ -14,11 +14,12 @@ from gymnasium.utils.env_checker import check_env
 from onnx import TensorProto, helper, numpy_helper
 
 import fallbench.environment  # noqa: F401  (registers fallbench/Fall-v0)
+from fallbench.assembly import simulate_named
+from fallbench.checks import load
 from fallbench.environment import ENV_ID
 from fallbench.environment.fall import FallEnv
 from fallbench.preimpact.learned.observation import observation_size
 from fallbench.preimpact.learned.onnx import model_problem
-from fallbench.registry import load, simulate_named
 from fallbench.results.store import load_metrics
 from fallbench.scenario import ScenarioError
 

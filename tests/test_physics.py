@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.registry import simulate_named
+from fallbench.assembly import simulate_named
 from fallbench.results.robot_check import stance_scenario, stand, touching_pairs
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.scenario import Scenario

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.assembly import simulate_named
 from fallbench.dynamics.model import pinocchio_for, select_motors
-from fallbench.registry import simulate_named
 from fallbench.scenario import Push, Scenario
 from fallbench.sim.recorder import Recording
 

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.assembly import run_world, simulate_named
 from fallbench.preimpact.reshape.controller import ReshapeConfig, seat_bodies
-from fallbench.registry import run_world, simulate_named
 from fallbench.scenario import Scenario, load_scenario_file
 
 DEV = Path(__file__).resolve().parents[1] / "scenarios" / "reshape_dev.yaml"

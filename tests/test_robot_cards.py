@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from fallbench.checks import check_scenario
 from fallbench.cli import app
-from fallbench.registry import check_scenario
 from fallbench.results.store import consolidate, load_metrics
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.robots.card import load_card

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from fallbench.checks import check_scenario, load
 from fallbench.cli import SHIPPED, app
-from fallbench.registry import check_scenario, load
 from fallbench.robots import ROBOTS, get_robot
 from fallbench.scenario import Scenario, load_scenario_file
 from fallbench.sim.support import body_box_corners

@@ -21,7 +21,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from ruamel.yaml import YAML
 
-from fallbench.registry import check_scenario
+from fallbench.checks import check_scenario
 from fallbench.scenario import ScenarioError, ScenarioFile, load_scenario_file
 
 SHIPPED = sorted((Path(__file__).resolve().parents[1] / "scenarios").glob("*.yaml"))

@@ -93,7 +93,7 @@ def test_model_cache_keeps_the_newest_files(tmp_path: Path, monkeypatch: pytest.
 
 LOADS_NUMBA = """
 import sys
-from fallbench.registry import simulate_named
+from fallbench.assembly import simulate_named
 from fallbench.scenario import Scenario
 simulate_named(Scenario(name="drop", duration=0.6, initial={{"height": 0.5}}), "{policy}")
 print("numba" in sys.modules)

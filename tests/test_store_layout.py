@@ -15,8 +15,8 @@ import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
+from fallbench.checks import load
 from fallbench.cli import app
-from fallbench.registry import load
 from fallbench.report.render import ReplayMissing, load_replay
 from fallbench.results import series, store
 from fallbench.results.runner import Outcome, RunSpec, simulate, store_outcome

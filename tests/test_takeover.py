@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fallbench.analysis.metrics import compute_metrics
-from fallbench.registry import simulate_named
+from fallbench.assembly import simulate_named
 from fallbench.scenario import Scenario
 
 SHORT_DROP = Scenario(name="drop", duration=0.2, initial={"height": 0.05})  # feet touch at ~0.10 s

@@ -15,9 +15,9 @@ import numpy as np
 import pandas as pd
 
 from fallbench.analysis.detection import detection_metrics
+from fallbench.analysis.obstacles import com_path, fall_origin, obstacle_metrics
 from fallbench.analysis.sensors import FORCE_WINDOW, ImuModel, window_mean_peak
 from fallbench.dynamics.fall_direction import fall_class, horizontal_unit
-from fallbench.preimpact.direction.outcome import com_path, direction_error_deg, obstacle_metrics
 from fallbench.sim.events import METHODS
 from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.sim.recorder import Recording
@@ -227,10 +227,6 @@ def impact_metrics(rec: Recording) -> dict[str, object]:
     singular = sorted({j for e in first for j in e.singular})
     row["singular_joints_first_impact"] = len(singular)
     row["singular_joints_first_impact_names"] = ",".join(singular)
-    errors = rec.landing_errors
-    for side in ("left", "right"):
-        row[f"landing_error_{side}"] = errors.get(side, float("nan"))
-    row["landing_error"] = float(np.mean(list(errors.values()))) if errors else float("nan")
     row["fall_direction_deg"], row["fall_class"] = fall_class_at_impact(rec)
     landing = touches(rec.world, rec.contact_times)
     row["first_impact_prescribed"] = first_impact_prescribed(landing, str(row["fall_class"]))
@@ -374,34 +370,14 @@ def _outcome(rec: Recording) -> dict[str, object]:
     }
 
 
-# Columns every row has, whichever controllers ran (theirs overwrite them).
-CONTROLLER_DEFAULTS: dict[str, object] = {
-    "qp_solve_ms_median": float("nan"),
-    "qp_solve_ms_p99": float("nan"),
-    "qp_failures": 0,
-    "preimpact_qp_ms_median": float("nan"),
-    "preimpact_qp_ms_p99": float("nan"),
-    "preimpact_qp_solve_ms_median": float("nan"),
-    "preimpact_qp_solve_ms_p99": float("nan"),
-    "preimpact_qp_failures": 0,
-    "preimpact_qp_steps": 0,
-    "fall_class_at_detection": "",
-    "fall_class_before_impact": "",
-}
-
-
 def _controller_statistics(rec: Recording, row: dict[str, object]) -> dict[str, object]:
-    """The policy's and strategy's own statistics, and 004's outcome among objects (every strategy)."""
-    stats: dict[str, object] = dict(CONTROLLER_DEFAULTS) | rec.policy_stats
+    """The policy's and strategy's own statistics over the columns every row has (what every
+    registered controller declared, `Recording.stat_columns`), and the outcome among objects."""
+    stats: dict[str, object] = dict(rec.stat_columns) | rec.policy_stats
     if rec.strategy is not None:
         stats.update(rec.strategy.metrics(rec))
     if rec.scenario.obstacles:
-        origin = stats.get("control_trigger_time", rec.fall_time)
-        stats.update(obstacle_metrics(rec, origin if origin == origin else rec.fall_time))
-        if "predicted_fall_direction_deg" in stats:
-            stats["fall_direction_error_deg"] = direction_error_deg(
-                stats["predicted_fall_direction_deg"], stats["actual_fall_direction_deg"]
-            )
+        stats.update(obstacle_metrics(rec, fall_origin(stats, rec)))
     return stats
 
 

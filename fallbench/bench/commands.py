@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from fallbench.registry import load
+from fallbench.checks import load
 from fallbench.scenario import DEFAULT_PHYSICS_DT, Scenario, ScenarioPoint
 
 

@@ -10,9 +10,9 @@ import mujoco
 import numpy as np
 
 from fallbench.analysis.metrics import compute_metrics
+from fallbench.assembly import simulate_named
 from fallbench.bench.config import RESHAPE_PUSH, solver_suffix, with_qp_solver
 from fallbench.dynamics.dense_qp import QP_SOLVERS
-from fallbench.registry import simulate_named
 from fallbench.scenario import Scenario, ScenarioPoint
 from fallbench.sim.servo import ServoCommand, write_servo
 from fallbench.sim.world import build_world, initial_state

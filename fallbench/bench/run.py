@@ -7,6 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fallbench.assembly import simulate_named
 from fallbench.bench.commands import command_figures, report_figures
 from fallbench.bench.config import FIXED, judge_targets, median_time, solver_suffix, with_qp_solver
 from fallbench.bench.environment import environment_figures
@@ -14,7 +15,6 @@ from fallbench.bench.episodes import policy_figures, pure_physics_s, reshape_fig
 from fallbench.bench.storage import store_figures
 from fallbench.bench.sweep import sweep_figures, sweep_specs
 from fallbench.dynamics.dense_qp import QP_SOLVERS
-from fallbench.registry import simulate_named
 from fallbench.results.runner import RunSpec, simulate
 from fallbench.scenario import ScenarioPoint
 

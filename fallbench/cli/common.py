@@ -18,7 +18,7 @@ def fail(message: str, code: int = 2) -> None:
 
 def _load(files: list[Path], robot: str | None = None) -> list[ScenarioPoint]:
     try:
-        from fallbench.registry import load
+        from fallbench.checks import load
 
         return load(list(files), robot)
     except ScenarioError as exc:

@@ -49,7 +49,7 @@ def _with_params(points: list[ScenarioPoint], settings: list[str]) -> list[Scena
 
     from ruamel.yaml import YAML
 
-    from fallbench.registry import check_controllers
+    from fallbench.checks import check_controllers
     from fallbench.scenario import Scenario
 
     if not settings:
@@ -80,7 +80,7 @@ def _with_params(points: list[ScenarioPoint], settings: list[str]) -> list[Scena
 def _check_strategies(points: list[ScenarioPoint], strategies: list[str]) -> None:
     """The strategies' own checks (an ONNX model that must fit the robot) on every point they will
     run on, before any run: one `error:` line and exit 2 on the first problem."""
-    from fallbench.registry import check_strategies
+    from fallbench.checks import check_strategies
 
     checked: set[tuple[str, str]] = set()
     for point in points:

@@ -29,10 +29,11 @@ import numpy as np
 from gymnasium import spaces
 
 from fallbench.analysis.metrics import LIMIT_HIT_TOLERANCE
+from fallbench.assembly import run_world
+from fallbench.checks import load
 from fallbench.postimpact.stiff import StiffPolicy
 from fallbench.preimpact.learned.onnx import OnnxStrategy
 from fallbench.preimpact.learned.strategy import LearnedStrategy
-from fallbench.registry import load, run_world
 from fallbench.scenario import Scenario, points_with_seed, read_documents
 from fallbench.sim.episode import Episode, Sensed
 from fallbench.sim.world import World

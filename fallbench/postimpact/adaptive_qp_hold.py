@@ -98,6 +98,7 @@ class AdaptiveQPHoldPolicy(GainPolicy):
     needs_contacts = True
     defaults: dict[str, Any] = AdaptiveQPPolicy.defaults | HOLD_DEFAULTS
     choices = AdaptiveQPPolicy.choices | {"hold_pose": HOLD_POSES, "qp_impacts": QP_IMPACTS}
+    stat_columns = AdaptiveQPPolicy.stat_columns  # its stats are adaptive_qp's and `hold_start`
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)

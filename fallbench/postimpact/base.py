@@ -29,6 +29,10 @@ class GainPolicy(ABC):
     choices: dict[
         str, tuple[str, ...]
     ] = {}  # the allowed values of text parameters, checked when scenarios load
+    # Columns of its `stats` that every run's row carries, whichever policy ran, with the value of
+    # the runs it did not take part in (the registry collects them; other columns of its own appear
+    # only in its runs' rows).
+    stat_columns: dict[str, Any] = {}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         self.params = resolved_params(

@@ -15,7 +15,6 @@ from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, Any
 
 import mujoco
-import numpy as np
 
 from fallbench.scenario import resolved_params
 from fallbench.sim.servo import ServoCommand
@@ -49,6 +48,10 @@ class Strategy(ABC):
     # Parts of the robot description it cannot work without (RobotDescription field names): a robot
     # whose card leaves one out is refused when scenarios load, before any run.
     robot_needs: tuple[str, ...] = ()
+    # Columns of its `stats` and `metrics` that every run's row carries, whichever strategy ran, with
+    # the value of the runs it did not take part in (the registry collects them; other columns of
+    # its own appear only in its runs' rows).
+    stat_columns: dict[str, Any] = {}
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         self.params = resolved_params(
@@ -80,10 +83,6 @@ class Strategy(ABC):
     def planned_contacts(self) -> set[str]:
         """Robot bodies whose new contacts with the environment are planned (not impacts)."""
         return set()
-
-    def landing_target(self, side: str, t: float) -> np.ndarray | None:
-        """The point (m, world) this arm's hand was aimed at, last chosen at or before t, if any."""
-        return None
 
     def stats(self) -> dict[str, Any]:
         """Per-episode controller figures (timings, failures) stored with the metrics."""

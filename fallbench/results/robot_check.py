@@ -25,8 +25,8 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from fallbench.assembly import simulate_named
 from fallbench.dynamics.model import PinocchioModel, build_pinocchio
-from fallbench.registry import simulate_named
 from fallbench.robots import get_robot
 from fallbench.robots.description import RobotDescription
 from fallbench.robots.meshes import converted_meshes

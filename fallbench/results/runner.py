@@ -97,9 +97,9 @@ def _versions(robot: str) -> tuple[tuple[str, str], ...]:
 
 def strategy_inputs(pre_impact: str, scenario: Any) -> dict[str, str]:
     """Files the strategy reads in this scenario, path -> content digest (none for most)."""
-    from fallbench.registry import STRATEGIES
+    from fallbench.registry import strategies
 
-    strategy = STRATEGIES.get(pre_impact)
+    strategy = strategies().get(pre_impact)
     return strategy.inputs(scenario) if strategy is not None else {}
 
 
@@ -147,7 +147,7 @@ def simulate(spec: RunSpec, keep_series: bool = True) -> Outcome:
     """Run one case and compute its metrics (and, with `keep_series`, its time series); never
     raises for a failing simulation. The metrics come from the recording, never from the series."""
     from fallbench.analysis.metrics import compute_metrics, timeseries
-    from fallbench.registry import simulate_named
+    from fallbench.assembly import simulate_named
 
     started = time.perf_counter()
     row = identity(spec)

@@ -21,6 +21,7 @@ from fallbench.scenario.schema import (
     Scenario,
     ScenarioError,
     ScenarioFile,
+    Timing,
     resolved_params,
 )
 from fallbench.scenario.sweep import ScenarioPoint
@@ -36,6 +37,7 @@ __all__ = [
     "ScenarioError",
     "ScenarioFile",
     "ScenarioPoint",
+    "Timing",
     "canonical_json",
     "load_scenario_file",
     "load_scenarios",

@@ -5,13 +5,10 @@ strategy -> impact detector -> gain policy -> servo references and gains written
 actuators. Everything the metrics need is recorded at the physics rate from MuJoCo's sensors
 (computed in C inside the step).
 
-Every motor switches to the gain policy at the first impact, unless the pre-impact strategy
-switches per chain (`reshape`): then a motor switches when a body on its chain to the root touches
-the environment (002 Sec. V, last paragraph); the others go on reshaping until the torso or head
-lands, when all switch, or at the latest `timing.handover_after` s after the first impact (a fall
-that ends on hands and knees never lands on the torso: 002 does not say what follows it).
-Contacts the strategy planned (a footstep) are not impacts. A whole-fall controller (`hands_over` False, a learned fall policy) never hands its motors over: it commands them
-from fall detection to the episode's end, and impacts are only logged.
+Impacts switch the motors to the gain policy on the takeover schedule (`takeover.py`: all at the
+first impact, or per chain). Contacts the strategy planned (a footstep) are not impacts. A
+whole-fall controller (`hands_over` False, a learned fall policy) never hands its motors over: it
+commands them from fall detection to the episode's end, and impacts are only logged.
 
 Impacts are watched inside the physics substeps: after fall detection, and until every motor has
 switched, a body touching for the first time (its contact sensor's "found" column) ends the substeps
@@ -25,130 +22,26 @@ from __future__ import annotations
 
 import math
 import time
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
 
-from fallbench.dynamics.model import pinocchio_for, select_motors
 from fallbench.scenario import Scenario
 from fallbench.sim.controllers import Observation, PostImpactController, PreImpactController
-from fallbench.sim.events import (
-    CapturePointDetector,
-    FallDetector,
-    FallWatch,
-    FreefallDetector,
-    ImpactDetector,
-    SignalLog,
-    TiltDetector,
-    capture_point_distance,
-)
+from fallbench.sim.events import FallWatch, ImpactDetector, SignalLog, make_fall_detector
 from fallbench.sim.impacts import ImpactLog
+from fallbench.sim.push import PushForce
 from fallbench.sim.recorder import Recording, Trace
-from fallbench.sim.rest import RestWatch
+from fallbench.sim.rest import RestWatch, divergence
+from fallbench.sim.sensing import DetectorInputs, Sensing
 from fallbench.sim.servo import ServoCommand, write_servo
-from fallbench.sim.support import FootSupport
+from fallbench.sim.takeover import Takeover
 from fallbench.sim.world import World, initial_state
-
-LANDED_GROUPS = ("torso", "head")  # a contact here ends pre-impact reshaping for every motor
-DIVERGENCE_WARNINGS = np.array(
-    [
-        int(mujoco.mjtWarning.mjWARN_BADQACC),
-        int(mujoco.mjtWarning.mjWARN_BADQVEL),
-        int(mujoco.mjtWarning.mjWARN_BADQPOS),
-    ]
-)
-
 
 # Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
 # MUJOCO_LOG.TXT in the working folder) would only clutter a sweep's output.
 mujoco.set_mju_user_warning(lambda message: None)
-
-
-def make_fall_detector(scenario: Scenario) -> FallDetector:
-    detection = scenario.detection
-    return FallDetector(
-        detection.method,
-        CapturePointDetector(detection.capture_point_margin),
-        TiltDetector(detection.tilt),
-        FreefallDetector(detection.freefall, detection.freefall_hold),
-    )
-
-
-def _push_force(world: World, scenario: Scenario) -> tuple[int, np.ndarray] | None:
-    push = scenario.push
-    if push is None or push.force == 0:
-        return None
-    body = world.model.body(push.body or world.robot.torso_body).id
-    heading = math.radians(push.direction)
-    force = push.force * np.array([math.cos(heading), math.sin(heading), 0.0])
-    return body, np.concatenate([force, np.zeros(3)])
-
-
-def _compose(switched: np.ndarray, policy: ServoCommand, other: ServoCommand) -> ServoCommand:
-    """Switched motors follow the gain policy, the others the pre-impact command."""
-    if switched.all():
-        return policy
-    return ServoCommand(
-        *(
-            np.where(switched, a, b)
-            for a, b in zip(
-                (policy.kp, policy.kd, policy.q_ref, policy.qd_ref),
-                (other.kp, other.kd, other.q_ref, other.qd_ref),
-            )
-        )
-    )
-
-
-def _foot_chains(world: World) -> dict[int, list[int]]:
-    """Contact body index of each feet-group body -> the indices of the feet-group bodies above it."""
-    feet = [
-        world.contact_bodies.index(b)
-        for b in world.robot.body_groups.get("feet", ())
-        if b in world.contact_bodies
-    ]
-    body_ids = {world.model.body(world.contact_bodies[i]).id: i for i in feet}
-    chains = {}
-    for index in feet:
-        above, parent = [], world.model.body_parentid[world.model.body(world.contact_bodies[index]).id]
-        while parent > 0:
-            if parent in body_ids:
-                above.append(body_ids[parent])
-            parent = world.model.body_parentid[parent]
-        chains[index] = above
-    return chains
-
-
-class Takeover:
-    """Which motors follow the gain policy, since when, and toward which pose (002 Sec. V: q_ref is
-    the configuration just before impact, taken per motor when it switches)."""
-
-    def __init__(self, nu: int) -> None:
-        self.switched = np.zeros(nu, dtype=bool)
-        self.time = np.full(nu, np.nan)  # s per motor, NaN = never
-        self.q_ref: np.ndarray | None = None
-
-    def switch(self, now: np.ndarray, q: np.ndarray, t: float) -> bool:
-        """Switch the motors of `now` that have not switched yet; True if any did."""
-        fresh = now & ~self.switched
-        if not fresh.any():
-            return False
-        self.q_ref = np.where(fresh, q, self.q_ref if self.q_ref is not None else q)
-        self.time[fresh] = t
-        self.switched = self.switched | now
-        return True
-
-
-class DetectorInputs(NamedTuple):
-    """A control step's inputs to the fall detectors (`Episode.detector_inputs`)."""
-
-    found: np.ndarray  # per contact body: touching since the last control step
-    torso: np.ndarray  # torso frame in the world: columns forward, left, up
-    imu_acc: np.ndarray  # m/s^2, accelerometer (gravity included)
-    com: np.ndarray  # m
-    com_velocity: np.ndarray  # m/s
-    support: np.ndarray  # (n, 2) m, ground points of the feet in contact
-    distance: float  # m, the capture point's signed distance to their polygon (NaN: no support)
 
 
 class Sensed(NamedTuple):
@@ -173,35 +66,23 @@ class Episode:
         strategy: PreImpactController,
         pre_impact: str,
     ) -> None:
-        self.world, self.scenario, self.policy, self.strategy, self.pre_impact = (
-            world,
-            scenario,
-            policy,
-            strategy,
-            pre_impact,
-        )
+        self.world, self.scenario, self.pre_impact = world, scenario, pre_impact
+        self.policy, self.strategy = policy, strategy
         model = world.model
         self.data = data = initial_state(world, scenario)
         self.per_control = scenario.physics_steps_per_control
         self.n_steps = math.ceil(scenario.duration / scenario.control_dt - 1e-9) * self.per_control
         self.trace = Trace(self.n_steps, model.nsensordata, model.nq, model.nv, model.nu)
         self.impacts = ImpactLog(world)
-        self.pinocchio = pinocchio_for(world)
-        self.landed_bodies = {b for g in LANDED_GROUPS for b in world.robot.body_groups.get(g, ())}
-        self.foot_chains = _foot_chains(world)
-        self.fall, self.impact, self.support = (
-            make_fall_detector(scenario),
-            ImpactDetector(),
-            FootSupport(world),
-        )
+        self.sensing = Sensing(world)
+        self.fall, self.impact = make_fall_detector(scenario), ImpactDetector()
         self.signals = SignalLog()
         detection = scenario.detection
         self.watch = FallWatch(detection.hand_back_margin, detection.tilt, detection.hand_back_hold)
         feet = world.robot.body_groups.get("feet", ())
         self.not_feet = ~np.isin(world.contact_bodies, list(feet))  # contact bodies whose touch is an impact
-        self.takeover = Takeover(model.nu)
-        self.due: list[tuple[float, np.ndarray]] = []  # (s, motors): switches waiting for the latency
-        self.push = _push_force(world, scenario)
+        self.takeover = Takeover(world, scenario.timing, strategy.per_chain_switching)
+        self.push = PushForce.of(world, scenario)
         self.pre_command = ServoCommand(
             world.default_kp, world.default_kd, data.qpos[world.qpos_adr].copy(), np.zeros(model.nu)
         )
@@ -209,18 +90,15 @@ class Episode:
         self.started: float | None = None  # s: the strategy's start (see `start_strategy`)
         self.policy_command: ServoCommand | None = None
         self.written = self.pre_command
-        write_servo(
-            model, data, self.written
-        )  # before the first forward pass: the cached model holds the last episode's gains
+        # before the first forward pass: the cached model holds the last episode's gains
+        write_servo(model, data, self.written)
         self.trace.changes.append((0, self.written))
         mujoco.mj_forward(model, data)
         self.sensor_row = data.sensordata.copy()
-        self.torso_rotation = np.zeros(9)
         self.controller_ms: list[float] = []
         self.seen = np.zeros(len(world.contact_bodies), dtype=bool)  # bodies in contact at detection or since
-        self.unplanned: np.ndarray | bool = (
-            True  # bodies whose contact would be an impact (not a planned footstep)
-        )
+        # bodies whose contact would be an impact (not a planned footstep)
+        self.unplanned: np.ndarray | bool = True
         self.step = self.since = 0  # physics step now, and at the previous control step
         self.physics_s, self.status, self.error = 0.0, "ok", ""
         self.rest = RestWatch(scenario, world.qvel_adr)
@@ -262,7 +140,7 @@ class Episode:
             found = inputs.found if inputs is not None else self.found()
         if self.fall.time is not None:
             self.detect_impacts(found)
-            switched_now = self.take_over(t)
+            switched_now = self.takeover.take_over(t, self.data.qpos[self.world.qpos_adr])
         return Sensed(t, started, found, switched_now)
 
     def strategy_steps_now(self) -> bool:
@@ -298,22 +176,8 @@ class Episode:
         return {self.world.contact_bodies[i] for i in np.flatnonzero(mask)}
 
     def detector_inputs(self) -> DetectorInputs:
-        """What the fall detectors read at this control step: contact sensors, torso frame,
-        accelerometer, CoM position and velocity, the ground points of the feet in contact and the
-        capture point's distance to their polygon."""
-        found, world = self.found(), self.world
-        mujoco.mju_copy(self.torso_rotation, self.data.xmat[world.torso_body])
-        com, com_velocity = world.sensor(self.sensor_row, "com_pos"), world.sensor(self.sensor_row, "com_vel")
-        support = self.support.points(self.data, found)
-        return DetectorInputs(
-            found,
-            world.robot.torso_frame(self.torso_rotation.reshape(3, 3)),
-            world.sensor(self.sensor_row, "imu_acc"),
-            com,
-            com_velocity,
-            support,
-            capture_point_distance(com, com_velocity, support),  # once, for the detector and the log
-        )
+        """What the fall detectors read at this control step (`sensing.Sensing.detector_inputs`)."""
+        return self.sensing.detector_inputs(self.data, self.sensor_row, self.found())
 
     def detect_fall(self, t: float, inputs: DetectorInputs) -> None:
         """Feed the fall detectors (every one is watched until the first impact); at detection,
@@ -331,7 +195,7 @@ class Episode:
             )
             and not detected
         ):
-            self.seen = self.whole_feet(inputs.found)
+            self.seen = self.sensing.whole_feet(inputs.found)
             self.impact.start(self.names(self.seen))
 
     def start_strategy(self, t: float) -> None:
@@ -372,14 +236,6 @@ class Episode:
             q = self.data.qpos[self.world.qpos_adr].copy()
             self.pre_command = ServoCommand(self.stance.kp, self.stance.kd, q, np.zeros_like(q))
 
-    def whole_feet(self, touching: np.ndarray) -> np.ndarray:
-        """The touching bodies and, for each foot among them, the foot's other bodies up its chain:
-        an ankle link that touches while its sole is on the floor is the foot rolling, not an impact."""
-        whole = touching.copy()
-        for body, foot in self.foot_chains.items():
-            whole[foot] |= touching[body]
-        return whole
-
     def detect_impacts(self, found: np.ndarray) -> None:
         """Log bodies touching for the first time since detection (planned footsteps excepted) at
         the time their contact was first sampled, and schedule the switch of their chains' motors
@@ -394,16 +250,9 @@ class Episode:
         first = self.impact.time is None
         self.impact.update(touched, new)
         self.impacts.update(touched, new, self.data, self.data.qpos, self.data.qvel)
-        takeover, timing = self.takeover, self.scenario.timing
-        if self.impact.time is None or takeover.switched.all() or not self.strategy.hands_over:
+        if self.impact.time is None or self.takeover.switched.all() or not self.strategy.hands_over:
             return  # a whole-fall controller (`hands_over` False) keeps its motors
-        every = np.ones(len(takeover.switched), dtype=bool)
-        if first and self.strategy.per_chain_switching:  # a fall that never lands on the torso ends too
-            self.due.append((touched + timing.handover_after, every))
-        everything = not self.strategy.per_chain_switching or new & self.landed_bodies
-        now = every if everything else np.zeros_like(takeover.switched)
-        now[select_motors(self.pinocchio, new, self.world.joint_names)] = True
-        self.due.append((touched + timing.takeover_latency, now))
+        self.takeover.schedule(touched, new, first)
 
     def first_sampled(self, bodies: np.ndarray) -> float:
         """s: the first physics sample since the last control step in which one of `bodies` touched
@@ -412,13 +261,6 @@ class Episode:
             return 0.0
         rows = self.trace.sensordata[self.since : self.step][:, self.world.contact_found_columns[bodies]]
         return (self.since + int(np.argmax(rows.max(axis=1) > 0))) * self.scenario.physics_dt
-
-    def take_over(self, t: float) -> bool:
-        """Switch the motors whose latency has passed; True if any did."""
-        ready = [motors for when, motors in self.due if when <= t + 1e-9]
-        self.due = [(when, motors) for when, motors in self.due if when > t + 1e-9]
-        q = self.data.qpos[self.world.qpos_adr]
-        return any([self.takeover.switch(motors, q, t) for motors in ready])
 
     def strategy_step(self, t: float) -> None:
         """The strategy's own command on its control grid, until every motor has switched or it
@@ -439,7 +281,7 @@ class Episode:
             )
             assert takeover.q_ref is not None
             self.policy_command = policy.after_impact(observation, takeover.q_ref)
-        return _compose(takeover.switched, self.policy_command, self.pre_command)
+        return takeover.compose(self.policy_command, self.pre_command)
 
     def write(self, command: ServoCommand) -> None:
         if command is not self.written:
@@ -449,9 +291,7 @@ class Episode:
 
     def apply_push(self, t: float) -> None:
         if self.push is not None:
-            push = self.scenario.push
-            active = push.start <= t < push.start + push.duration
-            self.data.xfrc_applied[self.push[0]] = self.push[1] if active else 0.0
+            self.push.apply(self.data, t)
 
     def physics(self) -> None:
         """The physics substeps up to the next control step, recorded; until every motor has
@@ -466,7 +306,7 @@ class Episode:
         model, data, trace = self.world.model, self.data, self.trace
         trace.reserve(self.step + self.per_control)
         # s: the earliest takeover falling due (the list does not change during the substeps)
-        due_at = min(when for when, _ in self.due) - 1e-9 if self.due else math.inf
+        due_at = self.takeover.due_at()
         # the substeps run some 800 000 times a sweep: MjData's and the trace's arrays, the step
         # and the physics time are read once here, not per substep
         qpos, qvel, sensordata, actuator_force = data.qpos, data.qvel, data.sensordata, data.actuator_force
@@ -492,25 +332,11 @@ class Episode:
 
     def diverged(self) -> bool:
         """A divergence warning or a NaN or inf anywhere: the run stops and is stored as diverged."""
-        counts = self.data.warning.number
-        if not counts[DIVERGENCE_WARNINGS].any() and math.isfinite(self.data.qacc.sum()):
+        reason = divergence(self.data)
+        if reason is None:
             return False
-        self.status = "diverged"
-        self.error = (
-            ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if counts[w])
-            or "non-finite state"
-        )
+        self.status, self.error = "diverged", reason
         return True
-
-    def landing_errors(self) -> dict[str, float]:
-        """m per arm side: from the point the strategy aimed the hand at to its first contact."""
-        errors: dict[str, float] = {}
-        for side in self.world.robot.arms:
-            contact = self.impacts.side_first_contact(side)
-            target = self.strategy.landing_target(side, contact[1].t) if contact else None
-            if contact is not None and target is not None:
-                errors[side] = float(np.linalg.norm(contact[1].point - target))
-        return errors
 
     def recording(self) -> Recording:
         step, trace, scenario = self.step, self.trace, self.scenario
@@ -540,8 +366,7 @@ class Episode:
             physics_s=self.physics_s,
             pre_impact=self.pre_impact,
             impact_events=self.impacts.events,
-            contact_times={body: c.t for body, c in self.impacts.first_contacts.items()},
-            landing_errors=self.landing_errors(),
+            first_contacts=self.impacts.first_contacts,
             policy_stats=self.policy.stats() | self.strategy.stats(),
             strategy=self.strategy,
             switch_time=self.takeover.time,
@@ -560,7 +385,11 @@ def run_episode(
     policy: PostImpactController,
     strategy: PreImpactController,
     pre_impact: str = "none",
+    stat_columns: dict[str, Any] | None = None,
 ) -> Recording:
-    """Simulate one fall; `world` is built from `scenario` (with the baseline gains the run uses) and
-    `pre_impact` names the strategy in the recording."""
-    return Episode(world, scenario, policy, strategy, pre_impact).run()
+    """Simulate one fall; `world` is built from `scenario` (with the baseline gains the run uses),
+    `pre_impact` names the strategy in the recording, and `stat_columns` are the columns every run's
+    row has (`Recording.stat_columns`)."""
+    recording = Episode(world, scenario, policy, strategy, pre_impact).run()
+    recording.stat_columns = dict(stat_columns or {})
+    return recording

@@ -18,8 +18,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from fallbench.scenario import Scenario
 
 GRAVITY = 9.81  # m/s^2
 METHODS = ("capture_point", "tilt", "freefall")
@@ -214,6 +218,17 @@ class FallDetector:
     @property
     def all_fired(self) -> bool:
         return len(self.times) == len(METHODS)
+
+
+def make_fall_detector(scenario: Scenario) -> FallDetector:
+    """The fall detectors with the scenario's `detection` settings."""
+    detection = scenario.detection
+    return FallDetector(
+        detection.method,
+        CapturePointDetector(detection.capture_point_margin),
+        TiltDetector(detection.tilt),
+        FreefallDetector(detection.freefall, detection.freefall_hold),
+    )
 
 
 @dataclass

@@ -101,20 +101,22 @@ class ImpactLog:
             )
         return found
 
-    def side_first_contact(self, side: str) -> tuple[str, FirstContact] | None:
-        """The first contact of a hand body on this arm (a body on the chain through its shoulder)."""
-        model = self.P.model
-        shoulder = model.getJointId(self.world.robot.arms[side].shoulder_joint)
-        hands = [
-            b
-            for b in self.world.robot.body_groups["hands"]
-            if b in self.first_contacts
-            and shoulder in model.supports[model.frames[model.getFrameId(b)].parentJoint]
-        ]
-        if not hands:
-            return None
-        body = min(hands, key=lambda b: self.first_contacts[b].t)
-        return body, self.first_contacts[body]
+
+def hand_first_contact(
+    world: World, first_contacts: dict[str, FirstContact], side: str
+) -> tuple[str, FirstContact] | None:
+    """The first contact of a hand body on this arm (a body on the chain through its shoulder)."""
+    model = pinocchio_for(world).model
+    shoulder = model.getJointId(world.robot.arms[side].shoulder_joint)
+    hands = [
+        b
+        for b in world.robot.body_groups["hands"]
+        if b in first_contacts and shoulder in model.supports[model.frames[model.getFrameId(b)].parentJoint]
+    ]
+    if not hands:
+        return None
+    body = min(hands, key=lambda b: first_contacts[b].t)
+    return body, first_contacts[body]
 
 
 # ---------------------------------------------------------------- landing order against 000's prescriptions

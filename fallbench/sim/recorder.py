@@ -10,7 +10,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from fallbench.scenario import Scenario
-from fallbench.sim.impacts import ImpactEvent
+from fallbench.sim.impacts import FirstContact, ImpactEvent
 from fallbench.sim.servo import ServoCommand
 from fallbench.sim.world import World
 
@@ -49,13 +49,12 @@ class Recording:
     impact_events: list[ImpactEvent] = field(
         default_factory=list
     )  # first contact of each body group, in order
-    contact_times: dict[str, float] = field(
-        default_factory=dict
-    )  # s, first contact of each body after the fall was detected
-    landing_errors: dict[str, float] = field(
-        default_factory=dict
-    )  # m per arm side, chosen BIP to wrist contact
+    # each body's first contact after the fall was detected: s, and the point (m, world)
+    first_contacts: dict[str, FirstContact] = field(default_factory=dict)
     policy_stats: dict[str, float] = field(default_factory=dict)
+    # the columns every run's row has, with their values where the controllers that ran give none:
+    # every registered strategy's and policy's `stat_columns` (collected by the registry)
+    stat_columns: dict[str, Any] = field(default_factory=dict)
     strategy: OutcomeMetrics | None = None  # the pre-impact strategy, for its own metrics
     policy_failure_times: list[float] = field(default_factory=list)  # s, control steps whose policy QP failed
     steps: int = 0
@@ -71,6 +70,11 @@ class Recording:
     body_contact_time: float | None = None
     hand_back_time: float | None = None  # s: the strategy handed back, its fall not going on
     strategy_start_time: float | None = None  # s: the pre-impact strategy started (detection.act_on)
+
+    @property
+    def contact_times(self) -> dict[str, float]:
+        """s, the first contact of each body after the fall was detected."""
+        return {body: contact.t for body, contact in self.first_contacts.items()}
 
 
 INITIAL_ROWS = 8192  # physics steps the trace starts with: 4.1 s at the default 0.5 ms step

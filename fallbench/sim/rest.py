@@ -1,4 +1,5 @@
-"""When a fall is over: the robot at rest, read from the root's and the joints' speeds.
+"""When a fall is over: the robot at rest, read from the root's and the joints' speeds (or the
+simulation diverged, `divergence`).
 
 A run ends once, after the last disturbance (the push's end), the root body's linear speed (m/s),
 its angular speed (rad/s) and every actuated joint's speed (rad/s) have stayed under the scenario's
@@ -11,9 +12,30 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 
 from fallbench.scenario import Scenario
+
+DIVERGENCE_WARNINGS = np.array(
+    [
+        int(mujoco.mjtWarning.mjWARN_BADQACC),
+        int(mujoco.mjtWarning.mjWARN_BADQVEL),
+        int(mujoco.mjtWarning.mjWARN_BADQPOS),
+    ]
+)
+
+
+def divergence(data: mujoco.MjData) -> str | None:
+    """Why the simulation diverged (MuJoCo's divergence warnings, or a NaN or inf in the
+    accelerations), None if it did not: the run then stops and is stored as diverged."""
+    counts = data.warning.number
+    if not counts[DIVERGENCE_WARNINGS].any() and math.isfinite(data.qacc.sum()):
+        return None
+    return (
+        ", ".join(mujoco.mjtWarning(w).name for w in DIVERGENCE_WARNINGS if counts[w]) or "non-finite state"
+    )
+
 
 # Rest postures (`rest_posture`), from the torso's axes and the root's height at the end of the run.
 UPRIGHT_TILT = 45.0  # deg: a torso within this of upright is standing, sitting or kneeling

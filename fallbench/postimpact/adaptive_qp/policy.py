@@ -37,6 +37,11 @@ class AdaptiveQPPolicy(GainPolicy):
     needs_contacts = True
     defaults: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(QPConfig)}
     choices = {"solver": QP_SOLVERS}
+    stat_columns: dict[str, Any] = {
+        "qp_solve_ms_median": float("nan"),
+        "qp_solve_ms_p99": float("nan"),
+        "qp_failures": 0,
+    }
 
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallbench.preimpact.direction.geometry import Circle
+from fallbench.analysis.safe_regions import Circle
 from fallbench.preimpact.direction.pendulum import Rollout, rollout
 from fallbench.preimpact.direction.support import contains, nearest_pivot
 from fallbench.sim.events import capture_point, support_polygon

@@ -6,21 +6,29 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from fallbench.analysis.obstacles import OutcomeSettings
+
 
 @dataclass(frozen=True)
 class DirectionConfig:
     mode: str = "auto"  # auto, or a forced no_action | lift_leg | take_step | take_step_pis | whole_body_is
     selection: str = "cascade"  # cascade (NA -> LL -> TS, first safe) | argmin (best score)
-    robot_radius: float = 0.54  # m: TALOS's widest footprint off the fall line that still touched an object (`fallbench direction radius`, docs/methods/direction.md); 004: half the leg spread (0.45)
+    # the geometry the plan shares with the outcome among objects (`fallbench.analysis.obstacles`),
+    # which reads the same keys of `policy_params.direction`: same defaults
+    robot_radius: float = OutcomeSettings.robot_radius  # m
     cone_margin: float = 0.0  # deg added to each side of every blocked cone when planning (004: 0); the judge's cones stay exact
-    consider_factor: float = 1.5  # objects within this times the robot height count
-    robot_height: float = 1.7  # m
-    w1: float = 0.5  # eq. 4; w2 = 1 - w1
+    consider_factor: float = (
+        OutcomeSettings.consider_factor
+    )  # objects within this times the robot height count
+    robot_height: float = OutcomeSettings.robot_height  # m
+    w1: float = OutcomeSettings.w1  # eq. 4; w2 = 1 - w1
     trigger_window: int = 8  # capture points tested for collinearity (control steps)
     trigger_tolerance: float = 0.003  # m RMS off their line
     trigger_min_travel: float = 0.01  # m along the line
     trigger_timeout: float = 0.2  # s after the fall trigger
-    touchdown_fraction: float = 0.35  # CoM height at touchdown / standing CoM height
+    touchdown_fraction: float = (
+        OutcomeSettings.touchdown_fraction
+    )  # CoM height at touchdown / standing CoM height
     lift_height: float = 0.08  # m, Lift a Leg and the step's swing clearance
     step_radius_min: float = 0.15  # m, step grid from the swing foot's centre
     step_radius_max: float = 0.6  # m

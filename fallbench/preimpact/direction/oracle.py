@@ -7,7 +7,7 @@ its candidates if prediction were free, separating prediction's cost from the ro
 Each rollout runs the candidate alone (no inertia shaping, no tracking: what the pendulum predicts
 too) with the strategy's own swing control and servo, the push as scheduled, and ends at
 touchdown (the CoM down to `touchdown_fraction` of its standing height), at the first contact with
-an object (then the object sets the direction, as in outcome.py), or `ROLLOUT_LIMIT` s. The
+an object (then the object sets the direction, as in `fallbench.analysis.obstacles`), or `ROLLOUT_LIMIT` s. The
 stepping grid is coarser than the pendulum's (`ORACLE_RADII` x every `ORACLE_HEADING` deg) to keep
 the rollouts to a few dozen per fall.
 

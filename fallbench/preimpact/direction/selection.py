@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fallbench.analysis.safe_regions import SafeRegion, score
 from fallbench.preimpact.direction.candidates import Candidate
-from fallbench.preimpact.direction.geometry import SafeRegion
-from fallbench.preimpact.direction.scoring import desired_direction, score
+from fallbench.preimpact.direction.scoring import desired_direction
 
 CLASSES = ("no_action", "lift_leg", "take_step")
 MODES = ("auto", "no_action", "lift_leg", "take_step", "take_step_pis", "whole_body_is")

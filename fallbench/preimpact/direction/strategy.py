@@ -18,12 +18,13 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from fallbench.analysis.obstacles import actual_fall_direction_deg, direction_error_deg, fall_origin
+from fallbench.analysis.safe_regions import grown_circles, object_circle, safe_regions, score
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.base import Strategy
 from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
-from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
 from fallbench.preimpact.direction.inertia import (
     damped_solve,
     damped_solve_holding,
@@ -40,7 +41,6 @@ from fallbench.preimpact.direction.rollout import (
     rolled_out,
     rollout_subset,
 )
-from fallbench.preimpact.direction.scoring import score
 from fallbench.preimpact.direction.selection import (
     CAPTURE,
     MODES,
@@ -398,6 +398,9 @@ class DirectionStrategy(Strategy):
             "direction_origin_x": float(self.origin[0]) if plan else math.nan,
             "direction_origin_y": float(self.origin[1]) if plan else math.nan,
         }
+        if recording.scenario.obstacles:  # the prediction against the outcome among objects
+            actual = actual_fall_direction_deg(recording, fall_origin(row, recording))
+            row["fall_direction_error_deg"] = direction_error_deg(row["predicted_fall_direction_deg"], actual)
         impacts = [e.t for e in recording.impact_events]
         if plan and plan.chosen.kind == "take_step":
             row["step_completed"] = (

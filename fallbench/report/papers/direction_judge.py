@@ -11,7 +11,7 @@ that stayed up give no direction and are counted apart). The same span read at t
 (`impact_fall_direction_deg`) leaves out where a body that landed on its hands rolled on to: a
 sideways fall props on its arms and rolls up to 30 deg further before its CoM is down.
 
-Need: `needed_deflection_deg` of the `none` run (outcome.py): the smallest rotation of its actual
+Need: `needed_deflection_deg` of the `none` run (`fallbench.analysis.obstacles`): the smallest rotation of its actual
 fall direction into a safe region of its own layout (0 inside one). Both come from runs that do
 not involve `direction`'s choices, so neither is tuned toward `direction`'s outcome. A hit is
 within authority when its need lies in the span of the nearest measured push (same robot; nearest
@@ -298,7 +298,7 @@ def footprint_rows(runs: pd.DataFrame, results: Path) -> pd.DataFrame:
     circle lies off the fall's line, `lateral_m` = perpendicular distance of its centre from the line
     (CoM at the fall trigger, along the actual fall direction) minus its circle's radius, and
     whether the fall touched it. Objects behind the fall are left out."""
-    from fallbench.preimpact.direction.geometry import object_circle
+    from fallbench.analysis.safe_regions import object_circle
     from fallbench.scenario import Scenario
 
     single = runs[

@@ -16,8 +16,8 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Wedge
 from ruamel.yaml import YAML
 
-from fallbench.preimpact.direction.config import DirectionConfig
-from fallbench.preimpact.direction.geometry import grown_circles, object_circle, safe_regions
+from fallbench.analysis.obstacles import OutcomeSettings
+from fallbench.analysis.safe_regions import grown_circles, object_circle, safe_regions
 from fallbench.report.figure_files import save_figure
 from fallbench.results import store
 from fallbench.scenario import Scenario
@@ -36,11 +36,9 @@ def _ray(origin: np.ndarray, degrees: float, length: float) -> np.ndarray:
     return np.c_[origin, origin + length * np.array([math.cos(angle), math.sin(angle)])]
 
 
-def _draw_safe_regions(ax: Axes, scenario: Scenario, config: DirectionConfig, origin: np.ndarray) -> None:
+def _draw_safe_regions(ax: Axes, scenario: Scenario, config: OutcomeSettings, origin: np.ndarray) -> None:
     """Shade the safe cones about `origin` between the grown object circles."""
-    grown = grown_circles(
-        scenario.obstacles, origin, config.robot_radius, config.consider_factor * config.robot_height
-    )
+    grown = grown_circles(scenario.obstacles, origin, config.robot_radius, config.consider_distance)
     for region in safe_regions(grown, origin):
         start = math.degrees(region.start)
         ax.add_patch(
@@ -133,7 +131,7 @@ def top_down_figure(runs: pd.DataFrame, results: Path, out: Path, point: str, po
         return []
     chosen = rows.loc["direction"]
     scenario = _scenario(results, chosen.run_id)
-    config = DirectionConfig(**scenario.policy_params.get("direction", {}))
+    config = OutcomeSettings.of(scenario)
     origin = np.array([chosen.direction_origin_x, chosen.direction_origin_y])
     if not np.isfinite(origin).all():
         return []

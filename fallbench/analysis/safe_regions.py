@@ -1,5 +1,7 @@
-"""Objects as grown circles, the cones they block, and the safe fall regions between them
-(004 Sec. III-A, III-C, eq. 1).
+"""Objects as grown circles, the cones they block, the safe fall regions between them, and the
+score of a fall direction against them (004 Sec. III-A, III-C, IV-A-1, eqs. 1-4): what the outcome
+of every run among objects is judged by (`fallbench.analysis.obstacles`), and what the `direction`
+strategy plans with.
 
 Planning is planar, in polar coordinates about the robot's CoM ground projection; angles are in
 radians, 0 = world x, counter-clockwise. Each object is its circumscribing vertical cylinder (a
@@ -144,3 +146,28 @@ def needed_deflection(angle: float, regions: list[SafeRegion]) -> float:
         return 0.0
     turns = [signed_turn(angle, edge) for r in regions for edge in (r.start, r.start + r.width)]
     return min(turns, key=abs)
+
+
+# ---------------------------------------------------------------- scores (004 Sec. IV-A-1, eqs. 2-4)
+# A direction in a safe region scores in [0, 1] (0 on the widest region's bisector), a direction
+# outside every region more than 1; lower is safer.
+
+
+def region_of(angle: float, regions: list[SafeRegion]) -> SafeRegion | None:
+    """The safe region containing a direction, else the nearest one (theta -> SF_j*); None if there is none."""
+    if not regions:
+        return None
+    inside = [r for r in regions if r.contains(angle)]
+    return inside[0] if inside else min(regions, key=lambda r: r.distance(angle))
+
+
+def score(angle: float, regions: list[SafeRegion], w1: float = 0.5, w2: float = 0.5) -> float:
+    """s = w1 s1 + w2 s2 (eq. 4), s1 by eq. 2, s2 by eq. 3; infinite when no region is free."""
+    region = region_of(angle, regions)
+    if region is None:
+        return math.inf
+    widest = max(r.width for r in regions)
+    inside = region.contains(angle)
+    s1 = 1.0 - region.width / widest if inside else 1.0
+    s2 = 2.0 * angle_between(angle, region.bisector) / region.width
+    return w1 * s1 + w2 * s2
