@@ -28,8 +28,8 @@ from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.direction.candidates import Candidate
 from fallbench.preimpact.direction.selection import Plan
 from fallbench.sim.events import capture_point
+from fallbench.sim.scene import obstacle_geoms
 from fallbench.sim.servo import write_servo
-from fallbench.sim.world import obstacle_geoms
 
 ROLLOUT_LIMIT = 2.0  # s after the control trigger
 ORACLE_RADII = (0.25, 0.45)  # m, step lengths simulated

@@ -20,7 +20,7 @@ from fallbench.preimpact.direction.geometry import (
     safe_regions,
 )
 from fallbench.preimpact.direction.scoring import score
-from fallbench.sim.world import obstacle_geoms
+from fallbench.sim.scene import obstacle_geoms
 
 if TYPE_CHECKING:
     from fallbench.sim.recorder import Recording
