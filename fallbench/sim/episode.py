@@ -211,7 +211,7 @@ class Episode:
         self.written = self.pre_command
         write_servo(
             model, data, self.written
-        )  # before the first forward pass: the cached model holds the last episode's gains
+        )  # before the first forward pass: the run's model holds the scene's unscaled gains
         self.trace.changes.append((0, self.written))
         mujoco.mj_forward(model, data)
         self.sensor_row = data.sensordata.copy()

@@ -6,6 +6,7 @@ its export as MJCF. What the scene holds, and its contact parameters, are scene.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import math
 import os
@@ -35,7 +36,8 @@ class SensorSlice:
 
 @dataclass
 class World:
-    """A compiled scene and the indices the controller, recorder and metrics need."""
+    """A compiled scene and the indices the controller, recorder and metrics need. A run's own
+    (`build_world`: its model a copy of the cached scene's), or the cached scene (`scene_world`)."""
 
     model: mujoco.MjModel
     robot: RobotDescription
@@ -60,10 +62,25 @@ class World:
 
 
 # ---------------------------------------------------------------- compiled world
+#
+# Ownership: the cache (`_SCENES`, one `World` per scene, at most `SCENES_KEPT`) owns the compiled
+# models, which nothing writes. A run owns the `World` `build_world` gives it: a copy of the cached
+# model (`copy.copy`: 2 ms for TALOS, 30-35 ms for G1, where loading takes 10-40 ms and compiling
+# 70-450 ms) with the scenario's friction and step, into which the run's servo writes its gains, and
+# its own `MjData` (`initial_state`). The checks and exports that only read a scene use the cached
+# `World` itself (`scene_world`).
+
+# Scenario keys MuJoCo reads at run time, set on a run's model rather than compiled in, so that
+# randomised friction (a Gymnasium environment draws one per episode) does not make a model per draw
+RUNTIME_KEYS = {"friction": Scenario.model_fields["friction"].default, "physics_dt": DEFAULT_PHYSICS_DT}
+SCENES_KEPT = 8  # compiled scenes kept in memory per process (a worker sees few; G1's model is 34 MB)
+MODEL_CACHE_FILES = 32  # compiled models kept on disk (G1's is 33 MB): the least recently written go
+_SCENES: dict[str, World] = {}  # scene key -> the scene compiled at the run-time keys' defaults
 
 
-def _world_key(scenario: Scenario) -> str:
-    """Only what changes the compiled model: a sweep over pushes or heights reuses one model."""
+def scene_key(scenario: Scenario) -> str:
+    """Only what changes the compiled model: a sweep over pushes, heights, friction or the physics
+    step reuses one model (the run-time keys are set on each run's copy of it)."""
     return scenario.model_copy(
         update={
             "initial": None,
@@ -73,6 +90,7 @@ def _world_key(scenario: Scenario) -> str:
             "name": "",
             "detection": None,
             "policy_params": {},
+            **RUNTIME_KEYS,
         }
     ).model_dump_json()
 
@@ -85,14 +103,6 @@ def _builder_source() -> bytes:
     return b"".join(path.read_bytes() for path in files)
 
 
-MODEL_CACHE_FILES = 32  # compiled models kept on disk (G1's is 33 MB): the least recently written go
-TEMPLATES_KEPT = 4  # compiled models kept in memory per process, by cache file
-_TEMPLATES: dict[Path, mujoco.MjModel] = {}
-# Scenario keys MuJoCo reads at run time, set on the loaded model rather than compiled in, so that
-# randomised friction (a Gymnasium environment draws one per episode) does not make a model per draw
-RUNTIME_KEYS = {"friction": Scenario.model_fields["friction"].default, "physics_dt": DEFAULT_PHYSICS_DT}
-
-
 def _set_runtime(model: mujoco.MjModel, scenario: Scenario) -> None:
     """The scenario's friction on every geom (the robot's and the scene's, as `_soften` sets it) and
     its step: the model a compile of `scenario` itself gives, byte for byte (tests/test_startup.py)."""
@@ -103,7 +113,7 @@ def _set_runtime(model: mujoco.MjModel, scenario: Scenario) -> None:
 def _model_cache_file(scenario: Scenario) -> Path:
     robot = get_robot(scenario.robot)
     digest = hashlib.sha256(
-        _world_key(scenario).encode()
+        scene_key(scenario).encode()
         + mujoco.__version__.encode()
         + robot.version.encode()
         + robot.fingerprint.encode()
@@ -129,36 +139,26 @@ def _save_to_cache(model: mujoco.MjModel, path: Path) -> None:
             tmp.unlink(missing_ok=True)
 
 
-def compile_model(scenario: Scenario) -> mujoco.MjModel:
-    """The scenario's compiled model, from the disk cache when an identical one was compiled
-    before (MuJoCo's binary format: loading takes 10-40 ms where compiling takes 70 ms for TALOS,
-    450 ms for G1), so every worker and every command does not compile the robot again. The key
-    holds everything that builds the model but the run-time keys (`RUNTIME_KEYS`, set after
-    loading): the world key, MuJoCo's and the description's versions, the robot's card and model
-    files (its fingerprint) and the source of this module and of the robot layer."""
-    template = scenario.model_copy(update=RUNTIME_KEYS)
+def _load_model(template: Scenario) -> mujoco.MjModel:
+    """The compiled model of `template` (a scenario at the run-time keys' defaults), from the disk
+    cache when an identical one was compiled before (MuJoCo's binary format: loading takes 10-40 ms
+    where compiling takes 70 ms for TALOS, 450 ms for G1), so every worker and every command does
+    not compile the robot again. The file's key holds everything that builds the model: the scene
+    key, MuJoCo's and the description's versions, the robot's card and model files (its
+    fingerprint) and the source of this module, of scene.py and of the robot layer."""
     path = _model_cache_file(template)
-    if path not in _TEMPLATES:
-        model = None
-        if path.exists():
-            try:
-                model = mujoco.MjModel.from_binary_path(str(path))
-            except ValueError:  # unreadable (e.g. truncated by a full disk): compile and replace it
-                pass
-        if model is None:
-            model = build_spec(template).compile()
-            _save_to_cache(model, path)
-        if len(_TEMPLATES) >= TEMPLATES_KEPT:
-            _TEMPLATES.pop(next(iter(_TEMPLATES)))
-        _TEMPLATES[path] = model
-    model = copy.copy(_TEMPLATES[path])  # half the time of reading G1's file again
-    _set_runtime(model, scenario)
+    if path.exists():
+        try:
+            return mujoco.MjModel.from_binary_path(str(path))
+        except ValueError:  # unreadable (e.g. truncated by a full disk): compile and replace it
+            pass
+    model = build_spec(template).compile()
+    _save_to_cache(model, path)
     return model
 
 
-def _compile(scenario: Scenario) -> World:
-    model = compile_model(scenario)
-    robot = get_robot(scenario.robot)
+def _index(model: mujoco.MjModel, robot: RobotDescription) -> World:
+    """The world of a compiled model: its actuated joints, sensors and body groups."""
     sensors = {
         model.sensor(i).name: SensorSlice(int(model.sensor_adr[i]), int(model.sensor_dim[i]))
         for i in range(model.nsensor)
@@ -190,17 +190,31 @@ def _compile(scenario: Scenario) -> World:
     )
 
 
-_WORLDS: dict[str, World] = {}
+def scene_world(scenario: Scenario) -> World:
+    """The cached compiled scene of `scenario`, shared by every run of it in this process, at the
+    run-time keys' defaults (not the scenario's friction and step): to read, never to write or to
+    step. A run uses `build_world`."""
+    key = scene_key(scenario)
+    world = _SCENES.get(key)
+    if world is None:
+        template = scenario.model_copy(update=RUNTIME_KEYS)
+        if len(_SCENES) >= SCENES_KEPT:
+            _SCENES.pop(next(iter(_SCENES)))
+        world = _SCENES[key] = _index(_load_model(template), get_robot(scenario.robot))
+    return world
+
+
+def compile_model(scenario: Scenario) -> mujoco.MjModel:
+    """A model of the scenario's own: a copy of the cached scene's with its friction and step."""
+    model = copy.copy(scene_world(scenario).model)
+    _set_runtime(model, scenario)
+    return model
 
 
 def build_world(scenario: Scenario) -> World:
-    """The compiled scene for a scenario; scenarios that differ only in start/push share it."""
-    key = _world_key(scenario)
-    if key not in _WORLDS:
-        if len(_WORLDS) >= 8:  # a worker sees few distinct scenes; bound the memory anyway
-            _WORLDS.pop(next(iter(_WORLDS)))
-        _WORLDS[key] = _compile(scenario)
-    return _WORLDS[key]
+    """The world of one run: the cached scene's indices and a model of the run's own
+    (`compile_model`), which its servo and its rollouts may write."""
+    return dataclasses.replace(scene_world(scenario), model=compile_model(scenario))
 
 
 # ---------------------------------------------------------------- initial state
@@ -278,7 +292,7 @@ def check_scene(scenario: Scenario) -> tuple[str, str] | None:
             "initial.posture",
             f"unknown posture {scenario.initial.posture!r} (known: {', '.join(robot.postures)})",
         )
-    world = build_world(scenario)
+    world = scene_world(scenario)
     model = world.model
     for name in scenario.initial.joints:
         if name not in world.joint_names:
@@ -319,7 +333,7 @@ def check_scene(scenario: Scenario) -> tuple[str, str] | None:
 
 def export_mjcf(scenario: Scenario) -> str:
     """The scene as MJCF text, with the initial state as keyframe `start`."""
-    world = build_world(scenario)
+    world = scene_world(scenario)
     data = initial_state(world, scenario)
     spec = build_spec(scenario)
     key = spec.add_key()
