@@ -14,7 +14,6 @@ import pytest
 from fallbench.analysis.metrics import compute_metrics
 from fallbench.analysis.safe_regions import angle_between
 from fallbench.assembly import simulate_named
-from fallbench.preimpact.direction.oracle import SAVED
 from fallbench.preimpact.direction.rollout import predict_by_rollout
 from fallbench.preimpact.direction.strategy import DirectionStrategy
 from fallbench.scenario import Scenario
@@ -32,7 +31,7 @@ DATA_FIELDS = ("time", "qpos", "qvel", "act", "ctrl", "qacc_warmstart", "sensord
 def _snapshot(strategy: DirectionStrategy, data: mujoco.MjData) -> dict[str, Any]:
     model = strategy.world.model
     kept: dict[str, Any] = {f"data.{f}": np.copy(getattr(data, f)) for f in DATA_FIELDS}
-    kept |= {f"strategy.{name}": getattr(strategy, name) for name in SAVED}
+    kept |= {f"strategy.{name}": value for name, value in strategy.snapshot().items()}
     kept |= {"q_ref values": strategy.q_ref.copy(), "qd_ref values": strategy.qd_ref.copy()}
     kept |= {  # the kinematics the strategy's present RobotState reads
         "pinocchio frames": np.array([placement.homogeneous for placement in strategy.P.data.oMf]),

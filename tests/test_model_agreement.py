@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import gc
-import weakref
-
 import numpy as np
 import pytest
 
@@ -42,13 +39,15 @@ def test_armature_is_in_both_models(robot: str) -> None:
         np.testing.assert_allclose(world.model.dof_armature[world.qvel_adr[joints]], 0.1)
 
 
-def test_the_pinocchio_cache_keeps_its_world_alive() -> None:
-    """A cached model holds its world, so that a world evicted from the world cache cannot be freed
-    and its id given to a new world, which would then get the old world's model (another robot's)."""
-    world = world_module.build_world(Scenario(name="cache", duration=1.0, friction=0.61))
-    alive = weakref.ref(world)
-    assert pinocchio_for(world).model.nq == world.model.nq
-    world_module._WORLDS.clear()  # as when eight newer worlds have evicted it
-    del world
-    gc.collect()
-    assert alive() is not None
+def test_the_pinocchio_model_is_keyed_by_the_robot_not_the_world_object() -> None:
+    """Every world of a robot shares its Pinocchio model, however many world objects runs made; another
+    robot gets its own (keyed by object identity, a freed world's id once gave G1 drops TALOS's model)."""
+    talos = [
+        world_module.build_world(Scenario(name="cache", duration=1.0, friction=friction))
+        for friction in (0.61, 0.61, 0.9)
+    ]
+    assert talos[0] is not talos[1] and talos[0].model is not talos[1].model  # a run's own model
+    assert len({id(pinocchio_for(world)) for world in talos}) == 1
+    g1 = world_module.build_world(Scenario(name="cache", duration=1.0, robot="g1"))
+    assert pinocchio_for(g1) is not pinocchio_for(talos[0])
+    assert pinocchio_for(g1).model.nq == g1.model.nq

@@ -310,7 +310,8 @@ def test_robots_check_fails_with_the_reason(tmp_path: Path, edit_card, edit_urdf
 
 def test_disabled_collisions_auto_disables_the_pairs_touching_in_the_stance(tmp_path: Path) -> None:
     from fallbench.results.robot_check import stance_scenario, touching_pairs
-    from fallbench.sim.world import build_world, stance_contacts
+    from fallbench.sim.scene import stance_contacts
+    from fallbench.sim.world import build_world
 
     def without_srdf_pairs(folder: Path, entry: str) -> str:
         folder.mkdir()

@@ -53,7 +53,7 @@ def test_cached_model_simulates_bit_identically(tmp_path: Path, monkeypatch: pyt
     whole = file.read_bytes()
     with monkeypatch.context() as cached:
         cached.setattr(world, "build_spec", _not_compiled)
-        cached.setattr(world, "_TEMPLATES", {})  # a new process: read from the disk
+        cached.setattr(world, "_SCENES", {})  # a new process: read from the disk
         loaded = world.compile_model(scenario)
         # friction and step are set at run time: another friction and step share the file
         assert _serialized(world.compile_model(other)) == direct[0.8]
@@ -61,7 +61,7 @@ def test_cached_model_simulates_bit_identically(tmp_path: Path, monkeypatch: pyt
     np.testing.assert_array_equal(_steps(loaded), _steps(compiled))
     assert list(cache.glob("world-*.mjb")) == [file]
     file.write_bytes(whole[:1000])  # truncated
-    monkeypatch.setattr(world, "_TEMPLATES", {})
+    monkeypatch.setattr(world, "_SCENES", {})
     np.testing.assert_array_equal(_steps(world.compile_model(scenario)), _steps(compiled))
     assert _fingerprint(file.read_bytes()) == _fingerprint(whole)  # rewritten whole
     assert sorted(cache.iterdir()) == [file]  # no temporary file left behind
@@ -79,16 +79,31 @@ def test_model_cache_keeps_the_newest_files(tmp_path: Path, monkeypatch: pytest.
         [new] = set(cache.glob("world-*.mjb")) - before
         written.append(new)
         time.sleep(0.01)  # distinct modification times
-        monkeypatch.setattr(world, "_TEMPLATES", {})
+        monkeypatch.setattr(world, "_SCENES", {})
         assert len(list(cache.glob("world-*.mjb"))) == min(index + 1, 2)
     assert sorted(cache.glob("world-*.mjb")) == sorted(written[1:])  # the oldest went, the newest two stayed
     with monkeypatch.context() as cached:  # ... and are read, not compiled again
         cached.setattr(world, "build_spec", _not_compiled)
         for softness in softnesses[1:]:
             world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": softness}))
-            cached.setattr(world, "_TEMPLATES", {})
+            cached.setattr(world, "_SCENES", {})
         with pytest.raises(AssertionError, match="compiled again"):
             world.compile_model(Scenario(name="cache", duration=1.0, contact={"time_constant": 0.02}))
+
+
+def test_a_run_owns_its_model_and_the_cached_scene_is_not_written() -> None:
+    """A run's servo gains, friction and step go into its own model, never into the cached scene's."""
+    scenario = Scenario(name="own", duration=1.0, friction=0.7, physics_dt=0.00025)
+    scene = world.scene_world(scenario)
+    gains = scene.model.actuator_gainprm.copy()
+    run, other = world.build_world(scenario), world.build_world(scenario)
+    assert run.model is not scene.model and run.model is not other.model
+    assert run.model.opt.timestep == 0.00025 and (run.model.geom_friction[:, 0] == 0.7).all()
+    run.model.actuator_gainprm[:, 0] *= 3.0  # as the run's servo writes them
+    np.testing.assert_array_equal(scene.model.actuator_gainprm, gains)
+    np.testing.assert_array_equal(other.model.actuator_gainprm, gains)
+    assert scene.model.opt.timestep == world.RUNTIME_KEYS["physics_dt"]
+    assert (scene.model.geom_friction[:, 0] == world.RUNTIME_KEYS["friction"]).all()
 
 
 LOADS_NUMBA = """

@@ -31,7 +31,7 @@ from fallbench.analysis.safe_regions import (
     safe_regions,
     score,
 )
-from fallbench.sim.world import obstacle_geoms
+from fallbench.sim.scene import obstacle_geoms
 
 if TYPE_CHECKING:
     from fallbench.scenario import Scenario

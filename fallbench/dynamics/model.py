@@ -73,21 +73,24 @@ def build_pinocchio(world: SimulatedRobot) -> PinocchioModel:
     return PinocchioModel(model, model.createData(), np.array(q_map), np.array(v_map), actuated)
 
 
-_PINOCCHIO: dict[int, tuple[SimulatedRobot, PinocchioModel]] = {}
-PINOCCHIO_CACHE_SIZE = 16  # models kept; a sweep's worker sees few distinct worlds
+_PINOCCHIO: dict[tuple[str, str, str, str], PinocchioModel] = {}
+PINOCCHIO_CACHE_SIZE = 16  # models kept; a sweep's worker sees few distinct robots
 
 
 def pinocchio_for(world: SimulatedRobot) -> PinocchioModel:
-    """One Pinocchio model per compiled world in this process. Each entry holds its world, so that
-    no other world can take its id while it is cached: keyed by a bare id, a world compiled after
-    the world cache (8 worlds) had evicted another could get the evicted one's id, and with it the
-    other's model (seen: G1 drops run on TALOS's model, 'Index out of range' in select_motors)."""
-    entry = _PINOCCHIO.get(id(world))
-    if entry is None:
+    """One Pinocchio model per robot description in this process, keyed by what it is built from:
+    the robot's name, card, version and fingerprint (its card and model files). The MuJoCo side it
+    maps (joint addresses, rotor armature, actuator order) is the robot's alone, the same in every
+    scene of the robot (obstacles and floor add no joint), so every world of a robot shares it,
+    whichever object holds the world."""
+    robot = world.robot
+    key = (robot.name, str(robot.card_path), robot.version, robot.fingerprint)
+    model = _PINOCCHIO.get(key)
+    if model is None:
         if len(_PINOCCHIO) >= PINOCCHIO_CACHE_SIZE:
             _PINOCCHIO.pop(next(iter(_PINOCCHIO)))
-        entry = _PINOCCHIO[id(world)] = (world, build_pinocchio(world))
-    return entry[1]
+        model = _PINOCCHIO[key] = build_pinocchio(world)
+    return model
 
 
 def select_motors(P: PinocchioModel, bodies: set[str], joint_names: tuple[str, ...]) -> np.ndarray:

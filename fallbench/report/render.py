@@ -100,7 +100,7 @@ def _scene_model(scenario: Scenario, quick: bool = False):
     the same bodies and qpos as the simulated model); `quick`: no shadows, no multisampling."""
     import mujoco
 
-    from fallbench.sim.world import FLOOR_NAME, build_spec
+    from fallbench.sim.scene import FLOOR_NAME, build_spec
 
     spec = build_spec(scenario)
     spec.compiler.discardvisual = (

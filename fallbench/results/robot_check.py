@@ -32,7 +32,8 @@ from fallbench.robots.description import RobotDescription
 from fallbench.robots.meshes import converted_meshes
 from fallbench.scenario import Scenario
 from fallbench.sim.events import tilt_deg
-from fallbench.sim.world import World, build_world, initial_state, stance_contacts
+from fallbench.sim.scene import stance_contacts
+from fallbench.sim.world import World, build_world, initial_state
 
 STAND_TIME = 2.0  # s standing under `stiff`
 MAX_DRIFT = 0.05  # m of base drift in the ground plane while standing

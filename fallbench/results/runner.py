@@ -204,18 +204,18 @@ def prepare(specs: list[RunSpec]) -> None:
     """Import the simulation code and compile the specs' worlds and Pinocchio models in this
     process (at most the world cache's size), so that forked workers inherit them."""
     from fallbench.dynamics.model import pinocchio_for
-    from fallbench.sim.world import build_world
+    from fallbench.sim.world import SCENES_KEPT, scene_key, scene_world
 
     for module in ("fallbench.sim.episode", "fallbench.analysis.metrics"):  # policies, strategies, pandas
         importlib.import_module(module)
-    worlds: set[int] = set()
+    scenes: set[str] = set()
     for spec in specs:
-        if len(worlds) == 8:  # the world cache's size: compiling more would evict these
-            break
-        world = build_world(spec.point.scenario)
-        if id(world) not in worlds:
-            worlds.add(id(world))
-            pinocchio_for(world)
+        key = scene_key(spec.point.scenario)
+        if key not in scenes:
+            if len(scenes) == SCENES_KEPT:  # compiling more would evict these
+                break
+            scenes.add(key)
+            pinocchio_for(scene_world(spec.point.scenario))
 
 
 @contextmanager

@@ -90,7 +90,7 @@ class Episode:
         self.started: float | None = None  # s: the strategy's start (see `start_strategy`)
         self.policy_command: ServoCommand | None = None
         self.written = self.pre_command
-        # before the first forward pass: the cached model holds the last episode's gains
+        # before the first forward pass: the run's model holds the scene's unscaled gains
         write_servo(model, data, self.written)
         self.trace.changes.append((0, self.written))
         mujoco.mj_forward(model, data)

@@ -3,7 +3,8 @@
 force = K (q_ref - q) + B (qd_ref - qd), clamped at the motor's torque limit by the actuator's
 forcerange. MuJoCo computes it at every physics step (and treats the damping implicitly), which is
 what keeps stiff gains stable; a PD computed once per 5 ms control step and held is not (measured
-with TALOS's leg gains 2000/20: the ankles chatter at up to 84 rad/s during free fall). The controller rewrites K, B, q_ref and qd_ref once per control step.
+with TALOS's leg gains 2000/20: the ankles chatter at up to 84 rad/s during free fall). The controller rewrites K, B, q_ref and qd_ref once per control step, into the run's own model
+(`sim/world.py:build_world`: a copy of the cached scene's, which no run writes).
 """
 
 from __future__ import annotations

@@ -1,22 +1,12 @@
-"""The MuJoCo scene of one scenario: robot, floor, obstacles, IMU, contact sensors, servo actuators.
-
-Contact and joint-limit softness decide the impact peaks; they are the scenario's `contact:`
-parameters (stated defaults), applied to every robot, floor and obstacle geom alike:
-
-- integrator `implicitfast`, physics step from the scenario (0.5 ms by default: 25 steps per
-  contact time constant, where halving the step moves the landing IMU peak by under 4 %);
-- contacts: solref (0.0125 s, 1.0), a critically damped contact with a 12.5 ms time constant
-  (MuJoCo asks for >= 2 steps per time constant; the schema enforces it), solimp
-  (0.9, 0.95, 0.001); condim 3 with the scenario's friction;
-- joint limits (mechanical stops): solreflimit (0.005 s, 1.0), a 5 ms stop, so that a joint
-  driven into its stop is stopped within a few milliseconds as by a hard end stop;
-- self-collisions on, except the pairs the robot's card (or its SRDF) disables and parent-child pairs;
-- MuJoCo's automatic reset on divergence is disabled, so a diverged run is seen and stored.
+"""A compiled scene (`World`: the MuJoCo model and the indices the controller, recorder and metrics
+need), its caches in memory and on disk, the state at t = 0, the checks that need the scene, and
+its export as MJCF. What the scene holds, and its contact parameters, are scene.py's.
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import math
 import os
@@ -30,14 +20,11 @@ import numpy as np
 
 from fallbench.robots import get_robot, robot_problem
 from fallbench.robots.cache import cache_root
-from fallbench.robots.description import DEFAULT_POSTURE, RobotDescription
-from fallbench.robots.meshes import mujoco_urdf_text
-from fallbench.scenario import DEFAULT_PHYSICS_DT, Box, Contact, Cylinder, Scenario
+from fallbench.robots.description import RobotDescription
+from fallbench.scenario import DEFAULT_PHYSICS_DT, Scenario
+from fallbench.sim import scene
+from fallbench.sim.scene import OBSTACLE_PREFIX, build_spec
 
-IMPEDANCE_SHAPE = (0.5, 2.0)  # solimp midpoint and power: MuJoCo's defaults
-ROBOT_COLLISION_BITS = (1, 1)  # contype, conaffinity: robot geoms touch each other and the scene
-FLOOR_NAME = "floor"
-OBSTACLE_PREFIX = "obstacle_"  # geom of obstacle i: obstacle_<i>
 POSTURE_NOISE_STREAM = 1  # random stream of the posture noise, apart from the seed's randomised keys
 
 
@@ -49,7 +36,8 @@ class SensorSlice:
 
 @dataclass
 class World:
-    """A compiled scene and the indices the controller, recorder and metrics need."""
+    """A compiled scene and the indices the controller, recorder and metrics need. A run's own
+    (`build_world`: its model a copy of the cached scene's), or the cached scene (`scene_world`)."""
 
     model: mujoco.MjModel
     robot: RobotDescription
@@ -73,243 +61,26 @@ class World:
         return sensordata[..., s.start : s.start + s.size]
 
 
-# ---------------------------------------------------------------- building the spec
-
-
-def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
-    import xml.etree.ElementTree as ET
-
-    tree = ET.fromstring(mujoco_urdf_text(robot))  # COLLADA meshes as STL
-    for tag in ("gazebo", "transmission"):
-        for element in tree.findall(tag):
-            tree.remove(element)
-    extension = ET.SubElement(tree, "mujoco")
-    # strippath=false: two different meshes are both called base_link.STL.
-    ET.SubElement(
-        extension,
-        "compiler",
-        strippath="false",
-        discardvisual="true",
-        fusestatic="false",
-        balanceinertia="true",
-    )
-    return mujoco.MjSpec.from_string(ET.tostring(tree, encoding="unicode"))
-
-
-def _soften(geom: mujoco.MjsGeom, scenario: Scenario) -> None:
-    """Friction, and the contact softness of `scenario.contact` (solref, solimp)."""
-    contact = scenario.contact
-    geom.friction = [scenario.friction, 0.005, 0.0001]
-    geom.solref = (contact.time_constant, contact.damping_ratio)
-    geom.solimp = (*contact.impedance, *IMPEDANCE_SHAPE)
-
-
-def obstacle_geoms(model: mujoco.MjModel) -> list[int]:
-    """Ids of the scenario's obstacle geoms in a compiled world."""
-    return [g for g in range(model.ngeom) if model.geom(g).name.startswith(OBSTACLE_PREFIX)]
-
-
-def _add_obstacle(spec: mujoco.MjSpec, index: int, obstacle: Box | Cylinder, scenario: Scenario) -> None:
-    geom = spec.worldbody.add_geom()
-    geom.name = f"{OBSTACLE_PREFIX}{index}"
-    geom.pos = obstacle.pos
-    if isinstance(obstacle, Box):
-        geom.type = mujoco.mjtGeom.mjGEOM_BOX
-        geom.size = [s / 2 for s in obstacle.size]
-        half_yaw = math.radians(obstacle.yaw) / 2
-        geom.quat = [math.cos(half_yaw), 0.0, 0.0, math.sin(half_yaw)]
-    else:
-        geom.type = mujoco.mjtGeom.mjGEOM_CYLINDER
-        geom.size = [obstacle.radius, obstacle.height / 2, 0.0]
-    _soften(geom, scenario)
-    geom.rgba = [0.6, 0.45, 0.3, 1.0]
-
-
-def _add_contact_sensor(
-    spec: mujoco.MjSpec, name: str, body: str, subtree: bool = False, geom2: str | None = None
-) -> None:
-    """Net force between `body` (or its subtree) and the environment: the world's static geoms
-    (floor and obstacles), or one obstacle geom. Robot self-contacts are not counted."""
-    sensor = spec.add_sensor()
-    sensor.name = name
-    sensor.type = mujoco.mjtSensor.mjSENS_CONTACT
-    sensor.objtype = mujoco.mjtObj.mjOBJ_XBODY if subtree else mujoco.mjtObj.mjOBJ_BODY
-    sensor.objname = body
-    sensor.reftype = mujoco.mjtObj.mjOBJ_BODY if geom2 is None else mujoco.mjtObj.mjOBJ_GEOM
-    sensor.refname = "world" if geom2 is None else geom2
-    # data = found (1) + force (3), reduced to the net force over all matching contacts
-    sensor.intprm = [1 | 2, 3, 1] + [0] * (len(sensor.intprm) - 3)
-
-
-def _set_options(spec: mujoco.MjSpec, scenario: Scenario) -> None:
-    """Name, step and solver options; no automatic reset, so that a diverged run is seen and stored."""
-    spec.modelname = f"fallbench_{scenario.name}"
-    spec.option.timestep = scenario.physics_dt
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
-    spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
-
-
-def _set_robot_contacts(spec: mujoco.MjSpec, robot: RobotDescription, scenario: Scenario) -> None:
-    """Every robot geom collides with the scene and the robot, with the scenario's contact softness,
-    except the body pairs the robot's card (or its SRDF) disables, and with `disabled_collisions:
-    auto` those touching in the `default` stance."""
-    for geom in spec.geoms:
-        geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
-        geom.condim = 3
-        _soften(geom, scenario)
-    _exclude(spec, robot.disabled_collisions)
-    if robot.disable_stance_contacts:
-        _exclude(spec, stance_contacts(robot))
-
-
-def _exclude(spec: mujoco.MjSpec, pairs: tuple[tuple[str, str], ...]) -> None:
-    for body1, body2 in pairs:
-        if spec.body(body1) is not None and spec.body(body2) is not None:
-            exclude = spec.add_exclude()
-            exclude.bodyname1, exclude.bodyname2 = body1, body2
-
-
-_STANCE_CONTACTS: dict[tuple[str, str], tuple[tuple[str, str], ...]] = {}
-
-
-def stance_contacts(robot: RobotDescription) -> tuple[tuple[str, str], ...]:
-    """Pairs of the robot's bodies whose collision geometry touches in the `default` stance, the
-    disabled pairs left out: what `disabled_collisions: auto` disables. The robot alone, compiled
-    as the world compiles it, posed in `default` (once per robot and card in a process)."""
-    key = (str(robot.card_path), robot.fingerprint)
-    if key not in _STANCE_CONTACTS:
-        spec = _robot_spec(robot)
-        spec.body(robot.root_body).add_freejoint()
-        for geom in spec.geoms:
-            geom.contype, geom.conaffinity = ROBOT_COLLISION_BITS
-        _exclude(spec, robot.disabled_collisions)
-        model = spec.compile()
-        data = mujoco.MjData(model)
-        for name, value in robot.postures[DEFAULT_POSTURE].items():
-            data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
-        mujoco.mj_forward(model, data)
-        bodies = (
-            (int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2]))
-            for c in data.contact[: data.ncon]
-        )
-        pairs = {tuple(sorted((model.body(a).name, model.body(b).name))) for a, b in bodies if a and b}
-        _STANCE_CONTACTS[key] = tuple(sorted(pairs))
-    return _STANCE_CONTACTS[key]
-
-
-def _add_scene(spec: mujoco.MjSpec, scenario: Scenario) -> None:
-    """The floor, the scenario's obstacles and a light above."""
-    floor = spec.worldbody.add_geom()
-    floor.name = FLOOR_NAME
-    floor.type = mujoco.mjtGeom.mjGEOM_PLANE
-    floor.size = [20.0, 20.0, 0.1]
-    _soften(floor, scenario)
-    floor.rgba = [0.8, 0.8, 0.8, 1.0]
-    for index, obstacle in enumerate(scenario.obstacles):
-        _add_obstacle(spec, index, obstacle, scenario)
-    light = spec.worldbody.add_light()
-    light.pos, light.dir = [0.0, 0.0, 4.0], [0.0, 0.0, -1.0]
-
-
-def _add_servos(spec: mujoco.MjSpec, robot: RobotDescription, contact: Contact) -> None:
-    """A position servo with the robot's default gains on each hinge, its torque clamped to the
-    joint's limit (Nm); each hinge's armature and its limit stop (`contact.stop_*`, default 5 ms)."""
-    for joint in spec.joints:
-        if joint.type != mujoco.mjtJoint.mjJNT_HINGE:
-            continue
-        joint.armature = robot.armature.get(joint.name, 0.0)
-        joint.solref_limit = (contact.stop_time_constant, contact.stop_damping_ratio)
-        kp, kd = robot.default_gains(joint.name)
-        actuator = spec.add_actuator()
-        actuator.name = joint.name
-        actuator.target = joint.name
-        actuator.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        actuator.set_to_position(kp=kp, kv=kd)
-        limit = joint.actfrcrange[1]
-        if limit > 0:  # else no effort in the URDF: unclamped (`fallbench robots check` says so)
-            actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-            actuator.forcerange = [-limit, limit]
-        else:
-            actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
-
-
-def _add_sensors(
-    spec: mujoco.MjSpec, kinds: tuple[tuple[str, mujoco.mjtSensor], ...], objtype: mujoco.mjtObj, objname: str
-) -> None:
-    """One sensor per (name, kind) of `kinds`, all on the same object."""
-    for name, kind in kinds:
-        sensor = spec.add_sensor()
-        sensor.name, sensor.type = name, kind
-        sensor.objtype, sensor.objname = objtype, objname
-
-
-def _add_state_sensors(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
-    """IMU (accelerometer, gyro), the root body's pose and velocity, the whole robot's CoM."""
-    imu = spec.body(robot.imu_body).add_site()
-    imu.name = "imu"
-    if robot.imu_pose is not None:  # a card's `imu_site`
-        imu.pos, imu.quat = robot.imu_pose
-    _add_sensors(
-        spec,
-        (("imu_acc", mujoco.mjtSensor.mjSENS_ACCELEROMETER), ("imu_gyro", mujoco.mjtSensor.mjSENS_GYRO)),
-        mujoco.mjtObj.mjOBJ_SITE,
-        "imu",
-    )
-    # XBODY: the body's own frame (BODY would be its inertial frame, which a URDF may rotate)
-    _add_sensors(
-        spec,
-        (
-            ("base_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
-            ("base_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT),
-            ("base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL),
-        ),
-        mujoco.mjtObj.mjOBJ_XBODY,
-        robot.root_body,
-    )
-    # whole-robot CoM and its velocity, for the capture point (computed in C inside the step)
-    _add_sensors(
-        spec,
-        (("com_pos", mujoco.mjtSensor.mjSENS_SUBTREECOM), ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL)),
-        mujoco.mjtObj.mjOBJ_BODY,
-        robot.root_body,
-    )
-
-
-def _add_contact_sensors(spec: mujoco.MjSpec, robot: RobotDescription, obstacles: int) -> None:
-    """The whole robot against the world, each body of the robot's body groups that has geoms,
-    and the whole robot against each of the `obstacles` obstacles."""
-    _add_contact_sensor(spec, "contact:total", robot.root_body, subtree=True)
-    for group, bodies in robot.body_groups.items():
-        for body in bodies:
-            if spec.body(body) is not None and spec.body(body).geoms:
-                _add_contact_sensor(spec, f"contact:{group}:{body}", body)
-    for index in range(obstacles):
-        _add_contact_sensor(
-            spec, f"obstacle:{index}", robot.root_body, subtree=True, geom2=f"{OBSTACLE_PREFIX}{index}"
-        )
-
-
-def build_spec(scenario: Scenario) -> mujoco.MjSpec:
-    """The scenario's scene, uncompiled: robot on a free joint, floor and obstacles, servos, sensors."""
-    robot = get_robot(scenario.robot)
-    spec = _robot_spec(robot)
-    _set_options(spec, scenario)
-    spec.body(robot.root_body).add_freejoint().name = "root"
-    _set_robot_contacts(spec, robot, scenario)
-    _add_scene(spec, scenario)
-    _add_servos(spec, robot, scenario.contact)
-    _add_state_sensors(spec, robot)
-    _add_contact_sensors(spec, robot, len(scenario.obstacles))
-    return spec
-
-
 # ---------------------------------------------------------------- compiled world
+#
+# Ownership: the cache (`_SCENES`, one `World` per scene, at most `SCENES_KEPT`) owns the compiled
+# models, which nothing writes. A run owns the `World` `build_world` gives it: a copy of the cached
+# model (`copy.copy`: 2 ms for TALOS, 30-35 ms for G1, where loading takes 10-40 ms and compiling
+# 70-450 ms) with the scenario's friction and step, into which the run's servo writes its gains, and
+# its own `MjData` (`initial_state`). The checks and exports that only read a scene use the cached
+# `World` itself (`scene_world`).
+
+# Scenario keys MuJoCo reads at run time, set on a run's model rather than compiled in, so that
+# randomised friction (a Gymnasium environment draws one per episode) does not make a model per draw
+RUNTIME_KEYS = {"friction": Scenario.model_fields["friction"].default, "physics_dt": DEFAULT_PHYSICS_DT}
+SCENES_KEPT = 8  # compiled scenes kept in memory per process (a worker sees few; G1's model is 34 MB)
+MODEL_CACHE_FILES = 32  # compiled models kept on disk (G1's is 33 MB): the least recently written go
+_SCENES: dict[str, World] = {}  # scene key -> the scene compiled at the run-time keys' defaults
 
 
-def _world_key(scenario: Scenario) -> str:
-    """Only what changes the compiled model: a sweep over pushes or heights reuses one model."""
+def scene_key(scenario: Scenario) -> str:
+    """Only what changes the compiled model: a sweep over pushes, heights, friction or the physics
+    step reuses one model (the run-time keys are set on each run's copy of it)."""
     return scenario.model_copy(
         update={
             "initial": None,
@@ -319,23 +90,17 @@ def _world_key(scenario: Scenario) -> str:
             "name": "",
             "detection": None,
             "policy_params": {},
+            **RUNTIME_KEYS,
         }
     ).model_dump_json()
 
 
 @cache
 def _builder_source() -> bytes:
-    """This module's and the robot layer's source: what turns a scenario into a model."""
-    files = [Path(__file__), *sorted((Path(__file__).parent.parent / "robots").rglob("*.py"))]
+    """This module's, the scene's and the robot layer's source: what turns a scenario into a model."""
+    robots = sorted((Path(__file__).parent.parent / "robots").rglob("*.py"))
+    files = [Path(__file__), Path(scene.__file__), *robots]
     return b"".join(path.read_bytes() for path in files)
-
-
-MODEL_CACHE_FILES = 32  # compiled models kept on disk (G1's is 33 MB): the least recently written go
-TEMPLATES_KEPT = 4  # compiled models kept in memory per process, by cache file
-_TEMPLATES: dict[Path, mujoco.MjModel] = {}
-# Scenario keys MuJoCo reads at run time, set on the loaded model rather than compiled in, so that
-# randomised friction (a Gymnasium environment draws one per episode) does not make a model per draw
-RUNTIME_KEYS = {"friction": Scenario.model_fields["friction"].default, "physics_dt": DEFAULT_PHYSICS_DT}
 
 
 def _set_runtime(model: mujoco.MjModel, scenario: Scenario) -> None:
@@ -348,7 +113,7 @@ def _set_runtime(model: mujoco.MjModel, scenario: Scenario) -> None:
 def _model_cache_file(scenario: Scenario) -> Path:
     robot = get_robot(scenario.robot)
     digest = hashlib.sha256(
-        _world_key(scenario).encode()
+        scene_key(scenario).encode()
         + mujoco.__version__.encode()
         + robot.version.encode()
         + robot.fingerprint.encode()
@@ -374,36 +139,26 @@ def _save_to_cache(model: mujoco.MjModel, path: Path) -> None:
             tmp.unlink(missing_ok=True)
 
 
-def compile_model(scenario: Scenario) -> mujoco.MjModel:
-    """The scenario's compiled model, from the disk cache when an identical one was compiled
-    before (MuJoCo's binary format: loading takes 10-40 ms where compiling takes 70 ms for TALOS,
-    450 ms for G1), so every worker and every command does not compile the robot again. The key
-    holds everything that builds the model but the run-time keys (`RUNTIME_KEYS`, set after
-    loading): the world key, MuJoCo's and the description's versions, the robot's card and model
-    files (its fingerprint) and the source of this module and of the robot layer."""
-    template = scenario.model_copy(update=RUNTIME_KEYS)
+def _load_model(template: Scenario) -> mujoco.MjModel:
+    """The compiled model of `template` (a scenario at the run-time keys' defaults), from the disk
+    cache when an identical one was compiled before (MuJoCo's binary format: loading takes 10-40 ms
+    where compiling takes 70 ms for TALOS, 450 ms for G1), so every worker and every command does
+    not compile the robot again. The file's key holds everything that builds the model: the scene
+    key, MuJoCo's and the description's versions, the robot's card and model files (its
+    fingerprint) and the source of this module, of scene.py and of the robot layer."""
     path = _model_cache_file(template)
-    if path not in _TEMPLATES:
-        model = None
-        if path.exists():
-            try:
-                model = mujoco.MjModel.from_binary_path(str(path))
-            except ValueError:  # unreadable (e.g. truncated by a full disk): compile and replace it
-                pass
-        if model is None:
-            model = build_spec(template).compile()
-            _save_to_cache(model, path)
-        if len(_TEMPLATES) >= TEMPLATES_KEPT:
-            _TEMPLATES.pop(next(iter(_TEMPLATES)))
-        _TEMPLATES[path] = model
-    model = copy.copy(_TEMPLATES[path])  # half the time of reading G1's file again
-    _set_runtime(model, scenario)
+    if path.exists():
+        try:
+            return mujoco.MjModel.from_binary_path(str(path))
+        except ValueError:  # unreadable (e.g. truncated by a full disk): compile and replace it
+            pass
+    model = build_spec(template).compile()
+    _save_to_cache(model, path)
     return model
 
 
-def _compile(scenario: Scenario) -> World:
-    model = compile_model(scenario)
-    robot = get_robot(scenario.robot)
+def _index(model: mujoco.MjModel, robot: RobotDescription) -> World:
+    """The world of a compiled model: its actuated joints, sensors and body groups."""
     sensors = {
         model.sensor(i).name: SensorSlice(int(model.sensor_adr[i]), int(model.sensor_dim[i]))
         for i in range(model.nsensor)
@@ -435,17 +190,31 @@ def _compile(scenario: Scenario) -> World:
     )
 
 
-_WORLDS: dict[str, World] = {}
+def scene_world(scenario: Scenario) -> World:
+    """The cached compiled scene of `scenario`, shared by every run of it in this process, at the
+    run-time keys' defaults (not the scenario's friction and step): to read, never to write or to
+    step. A run uses `build_world`."""
+    key = scene_key(scenario)
+    world = _SCENES.get(key)
+    if world is None:
+        template = scenario.model_copy(update=RUNTIME_KEYS)
+        if len(_SCENES) >= SCENES_KEPT:
+            _SCENES.pop(next(iter(_SCENES)))
+        world = _SCENES[key] = _index(_load_model(template), get_robot(scenario.robot))
+    return world
+
+
+def compile_model(scenario: Scenario) -> mujoco.MjModel:
+    """A model of the scenario's own: a copy of the cached scene's with its friction and step."""
+    model = copy.copy(scene_world(scenario).model)
+    _set_runtime(model, scenario)
+    return model
 
 
 def build_world(scenario: Scenario) -> World:
-    """The compiled scene for a scenario; scenarios that differ only in start/push share it."""
-    key = _world_key(scenario)
-    if key not in _WORLDS:
-        if len(_WORLDS) >= 8:  # a worker sees few distinct scenes; bound the memory anyway
-            _WORLDS.pop(next(iter(_WORLDS)))
-        _WORLDS[key] = _compile(scenario)
-    return _WORLDS[key]
+    """The world of one run: the cached scene's indices and a model of the run's own
+    (`compile_model`), which its servo and its rollouts may write."""
+    return dataclasses.replace(scene_world(scenario), model=compile_model(scenario))
 
 
 # ---------------------------------------------------------------- initial state
@@ -523,7 +292,7 @@ def check_scene(scenario: Scenario) -> tuple[str, str] | None:
             "initial.posture",
             f"unknown posture {scenario.initial.posture!r} (known: {', '.join(robot.postures)})",
         )
-    world = build_world(scenario)
+    world = scene_world(scenario)
     model = world.model
     for name in scenario.initial.joints:
         if name not in world.joint_names:
@@ -564,7 +333,7 @@ def check_scene(scenario: Scenario) -> tuple[str, str] | None:
 
 def export_mjcf(scenario: Scenario) -> str:
     """The scene as MJCF text, with the initial state as keyframe `start`."""
-    world = build_world(scenario)
+    world = scene_world(scenario)
     data = initial_state(world, scenario)
     spec = build_spec(scenario)
     key = spec.add_key()

@@ -12,11 +12,13 @@ stepping grid is coarser than the pendulum's (`ORACLE_RADII` x every `ORACLE_HEA
 the rollouts to a few dozen per fall.
 
 `run_candidate` is the machinery the short-rollout predictor (rollout.py) shares: it simulates a
-candidate in a copy of the state and puts the strategy and the model back as they were.
+candidate in a copy of the state and of the model, and puts the strategy back as it was (the
+strategy's `snapshot()` and `restore()`).
 """
 
 from __future__ import annotations
 
+import copy as copying
 import math
 from collections.abc import Callable, Iterable
 from typing import Any
@@ -26,15 +28,13 @@ import numpy as np
 
 from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.direction.candidates import Candidate
-from fallbench.preimpact.direction.selection import Plan
 from fallbench.sim.events import capture_point
+from fallbench.sim.scene import obstacle_geoms
 from fallbench.sim.servo import write_servo
-from fallbench.sim.world import obstacle_geoms
 
 ROLLOUT_LIMIT = 2.0  # s after the control trigger
 ORACLE_RADII = (0.25, 0.45)  # m, step lengths simulated
 ORACLE_HEADING = 45.0  # deg between simulated step headings
-SAVED = ("plan", "q_ref", "qd_ref", "step_done", "step_error", "swing_path", "tracked", "tracking_switch")
 
 
 def step_subset(candidates: list[Candidate], radii: Iterable[float], heading_deg: float) -> list[Candidate]:
@@ -59,32 +59,6 @@ def oracle_subset(candidates: list[Candidate]) -> list[Candidate]:
     return step_subset(candidates, ORACLE_RADII, ORACLE_HEADING)
 
 
-class _ModelState:
-    """The model parameters the rollouts overwrite in the shared model (servo gains; the contact
-    flags of the objects when they are left out; the physics step), restored afterwards."""
-
-    def __init__(self, model: mujoco.MjModel) -> None:
-        self.model = model
-        self.gain = model.actuator_gainprm.copy()
-        self.bias = model.actuator_biasprm.copy()
-        self.contype = model.geom_contype.copy()
-        self.timestep = float(model.opt.timestep)
-        self.conaffinity = model.geom_conaffinity.copy()
-
-    def without_objects(self) -> None:
-        """The objects stop colliding with anything (a robot that knows them only as circles)."""
-        objects = obstacle_geoms(self.model)
-        self.model.geom_contype[objects] = 0
-        self.model.geom_conaffinity[objects] = 0
-
-    def restore(self) -> None:
-        self.model.actuator_gainprm[:] = self.gain
-        self.model.actuator_biasprm[:] = self.bias
-        self.model.geom_contype[:] = self.contype
-        self.model.geom_conaffinity[:] = self.conaffinity
-        self.model.opt.timestep = self.timestep
-
-
 Stop = Callable[[mujoco.MjData, RobotState], bool]  # (the copy, its state) -> end the rollout now
 
 
@@ -104,20 +78,19 @@ def run_candidate(
     the strategy's own swing control and servo, from the present state `data` at time `t` (s) until
     `stop` says so or `limit` s have passed. `push`: the scenario's push as scheduled (else none);
     `objects`: the objects collide (else they are not there); `physics_dt` (s): the rollout's
-    physics step, if not 0 (else the scenario's). `data`, the strategy's state, the model and the
-    kinematics in the strategy's Pinocchio data are left as they were. `strategy` is the running
-    DirectionStrategy (not imported here: it imports this module)."""
+    physics step, if not 0 (else the scenario's). The rollout steps a copy of the run's model, so
+    the run's model is not written; `data`, the strategy's state (its `snapshot()`, put back by
+    `restore()`) and the kinematics in the strategy's Pinocchio data are left as they were.
+    `strategy` is the running DirectionStrategy (not imported here: it imports this module)."""
     world, scenario = strategy.world, strategy.scenario
-    model = world.model
-    saved = {name: getattr(strategy, name) for name in SAVED}
-    kept = _ModelState(model)
+    model = copying.copy(world.model)  # the rollout's own: its gains, objects and step are its own
+    saved = strategy.snapshot()
     copy = mujoco.MjData(model)
-    mujoco.mj_copyData(copy, model, data)
-    if not objects:
-        kept.without_objects()
-    strategy.plan = Plan(candidate, "", None, [])
-    strategy.step_done, strategy.swing_path, strategy.tracked = None, None, None
-    strategy.q_ref, strategy.qd_ref = saved["q_ref"].copy(), saved["qd_ref"].copy()
+    mujoco.mj_copyData(copy, world.model, data)
+    if not objects:  # the objects stop colliding with anything (a robot that knows them only as circles)
+        model.geom_contype[obstacle_geoms(model)] = 0
+        model.geom_conaffinity[obstacle_geoms(model)] = 0
+    strategy.rehearse(candidate)
     scheduled = scenario.push if push else None
     steps, dt = scenario.physics_steps_per_control, scenario.physics_dt
     if physics_dt > 0.0:
@@ -137,9 +110,7 @@ def run_candidate(
             state = RobotState.measure(strategy.P, *strategy.P.state(copy.qpos, copy.qvel))
         return copy, state, now
     finally:
-        for name, value in saved.items():
-            setattr(strategy, name, value)
-        kept.restore()
+        strategy.restore(saved)
         # Pinocchio's data: the kinematics of the present state again
         RobotState.measure(strategy.P, *strategy.P.state(data.qpos, data.qvel))
 

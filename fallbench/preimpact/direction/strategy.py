@@ -23,7 +23,7 @@ from fallbench.analysis.safe_regions import grown_circles, object_circle, safe_r
 from fallbench.dynamics.model import pinocchio_for
 from fallbench.dynamics.state import RobotState
 from fallbench.preimpact.base import Strategy
-from fallbench.preimpact.direction.candidates import FallState, StepGrid, evaluate, step_directions
+from fallbench.preimpact.direction.candidates import Candidate, FallState, StepGrid, evaluate, step_directions
 from fallbench.preimpact.direction.config import DIRECTION_PARAMS, DirectionConfig
 from fallbench.preimpact.direction.inertia import (
     damped_solve,
@@ -62,6 +62,18 @@ from fallbench.scenario import Scenario
 from fallbench.sim.events import capture_point, support_polygon
 from fallbench.sim.servo import ServoCommand
 from fallbench.sim.world import World
+
+# What a rollout of a candidate changes (`snapshot`, `restore`)
+ROLLOUT_STATE = (
+    "plan",
+    "q_ref",
+    "qd_ref",
+    "step_done",
+    "step_error",
+    "swing_path",
+    "tracked",
+    "tracking_switch",
+)
 
 if TYPE_CHECKING:
     from fallbench.sim.recorder import Recording
@@ -376,6 +388,24 @@ class DirectionStrategy(Strategy):
         excess = float(np.max(np.abs(qdot) / self.speed_limit))
         if excess > 1.0:
             qdot /= excess
+
+    # ------------------------------------------------------------------ simulated ahead (oracle.py, rollout.py)
+
+    def snapshot(self) -> dict[str, Any]:
+        """The state a rollout of a candidate changes (its plan, references, step and tracking), for
+        `restore` to put back: the objects themselves, which a rollout replaces but never changes."""
+        return {name: getattr(self, name) for name in ROLLOUT_STATE}
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        for name, value in snapshot.items():
+            setattr(self, name, value)
+
+    def rehearse(self, candidate: Candidate) -> None:
+        """Ready to simulate `candidate` alone (no inertia shaping): its plan, no step taken, no swing
+        path, no tracking yet, and copies of the present references."""
+        self.plan = Plan(candidate, "", None, [])
+        self.step_done, self.swing_path, self.tracked = None, None, None
+        self.q_ref, self.qd_ref = self.q_ref.copy(), self.qd_ref.copy()
 
     # ------------------------------------------------------------------ results
 
