@@ -52,16 +52,16 @@ def paired_changes(runs: pd.DataFrame, done: Ranked | None = None) -> pd.DataFra
     runs = paired.narrow(runs, measures_for(runs))
     ok = runs[runs.status == "ok"]
     measures = measures_for(ok)
-    if paired.arm_runs(ok, REFERENCE).empty:
+    indexed = paired.ArmRuns(ok)
+    if not len(indexed.first_rows(REFERENCE)):
         return pd.DataFrame(columns=COLUMNS)
     done = done or ranked(runs)
     columns = [m.column for m in measures]
-    reference_runs = paired.arm_runs(ok, REFERENCE, columns)
     rows = []
     for arm in arm_order(runs, done):
         if arm == REFERENCE:
             continue
-        pair_rows = paired.pairs(ok, arm, columns, reference_runs)
+        pair_rows = indexed.pairs(arm, columns)
         base = {"pre_impact": arm[0], "policy": arm[1], "name": row_name(done, arm)}
         for measure in measures:
             change = paired.change(pair_rows, measure.column)
