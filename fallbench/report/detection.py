@@ -11,7 +11,6 @@ import pandas as pd
 
 import fallbench.report.pages as pages
 from fallbench.analysis.detection import EARLIEST, GRID, STRATEGY_START, detection_table
-from fallbench.preimpact.reshape.controller import RESHAPE_PARAMS
 from fallbench.report.figure_files import save_figure
 from fallbench.scenario import Detection
 
@@ -22,8 +21,21 @@ DEFAULTS = {
     "tilt": Detection().tilt,
     "freefall": Detection().freefall,
 }
-STRATEGY_START_DEFAULTS = {"capture_point": RESHAPE_PARAMS["start_margin"], "tilt": Detection().tilt}
-COMBINED = {EARLIEST: DEFAULTS, STRATEGY_START: STRATEGY_START_DEFAULTS}
+
+
+def _reshape_start_margin() -> float:
+    from fallbench.preimpact.reshape.controller import RESHAPE_PARAMS  # here: it imports the dynamics
+
+    return RESHAPE_PARAMS["start_margin"]
+
+
+def combined() -> dict[str, dict[str, float]]:
+    """The combined detectors judged beside the single ones: the three at their defaults (the
+    earliest declares), and what starts reshape (the capture point at its start margin, or the tilt)."""
+    strategy_start = {"capture_point": _reshape_start_margin(), "tilt": Detection().tilt}
+    return {EARLIEST: DEFAULTS, STRATEGY_START: strategy_start}
+
+
 COMBINED_MARKERS = {EARLIEST: ("*", "earliest of the three"), STRATEGY_START: ("P", "reshape starts")}
 MARKERS = {"capture_point": "o", "tilt": "s", "freefall": "^"}
 COLUMNS = {
@@ -83,7 +95,7 @@ def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
     judged = detection_runs(runs)
     if judged.empty:
         return None
-    table = detection_table(judged, COMBINED)
+    table = detection_table(judged, combined())
     body = [
         "<h1>Fall detection</h1>",
         f"<p>{len(judged)} runs under none + stiff, each a fall (fallen at rest, or a body other than the "
@@ -94,7 +106,7 @@ def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
         + ", ".join(f"{d} {v:g}" for d, v in DEFAULTS.items())
         + "; 'earliest': the three together at their defaults, the first to fire declaring the fall, "
         "as a scenario's default `detection` does; 'strategy start': the capture point at "
-        f"reshape's default start margin ({RESHAPE_PARAMS['start_margin']:g} m) or the tilt, the "
+        f"reshape's default start margin ({_reshape_start_margin():g} m) or the tilt, the "
         "first to fire starting reshape (docs/detection.md).</p>",
     ]
     body += [pages.image(p, out) for p in trade_off_figure(table, out) if p.suffix == ".png"]
