@@ -16,6 +16,7 @@ from __future__ import annotations
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -105,13 +106,16 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
         squeeze=False,
     )
     y = np.arange(len(arms))[::-1]  # the best at the top
+    panels: dict[str, dict[tuple[str, str], Any]] = {measure: {} for measure in measures}
+    for change in changes.itertuples(index=False):  # a panel's rows by arm, read once
+        panels[change.measure][(change.pre_impact, change.policy)] = change
     for ax, measure in zip(axes[0], measures):
-        rows = changes[changes.measure == measure].set_index(["pre_impact", "policy"]).reindex(arms)
-        first = rows.iloc[0]
-        references = rows.reference.dropna().unique()
+        rows = [panels[measure].get(arm) for arm in arms]  # None: the arm lacks the measure
+        first = rows[0]
+        references = pd.unique(pd.Series([r.reference for r in rows if r is not None]).dropna())
         ax.axvline(0.5 if measure == IMPROVEMENT else 0.0, color="grey", linewidth=1.0)
-        for k, (arm, row) in enumerate(rows.iterrows()):
-            if np.isnan(row.value):
+        for k, (arm, row) in enumerate(zip(arms, rows)):
+            if row is None or np.isnan(row.value):
                 continue
             low, high = (row.low, row.high) if not np.isnan(row.low) else (row.value, row.value)
             ax.plot([low, high], [y[k], y[k]], color=colour(arm[1]), linewidth=2.2, solid_capstyle="butt")
@@ -138,9 +142,8 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
         ax.tick_params(labelsize=7.5)
         ax.xaxis.set_major_locator(MaxNLocator(nbins=3))  # wide numbers (forces in N) stay apart
         ax.xaxis.set_major_formatter(FuncFormatter(_short_number))
-        if measure != IMPROVEMENT and not np.nanmax(
-            np.abs(rows[["low", "high", "value"]].to_numpy()), initial=0
-        ):
+        shown = [[r.low, r.high, r.value] for r in rows if r is not None]
+        if measure != IMPROVEMENT and not np.nanmax(np.abs(np.array(shown, dtype=float)), initial=0):
             ax.set_xlim(-1.0, 1.0)  # every change 0: a readable axis, not +-0.05
         for row in y[1::2]:
             ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)
