@@ -31,7 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 FORCE_WINDOW = 0.005  # s: the papers' control period; an impact on a hard floor lasts a few ms
 
@@ -47,6 +46,8 @@ class ImuModel:
     def filtered(self, acc: np.ndarray, dt: float) -> np.ndarray:
         """The low-passed acceleration at every physics sample (m/s^2, same shape as `acc`), starting
         at rest on the first sample (no start-up transient)."""
+        from scipy import signal  # here: importing scipy.signal takes ~0.5 s, and only runs filter
+
         numerator, denominator = signal.butter(self.order, 2 * math.pi * self.bandwidth, analog=True)
         discrete, poles, _ = signal.cont2discrete((numerator, denominator), dt, method="zoh")
         b, a = np.ravel(discrete), np.ravel(poles)

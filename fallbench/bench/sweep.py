@@ -20,9 +20,19 @@ from fallbench.scenario import ScenarioPoint
 
 
 def _simulate_measured(spec: RunSpec) -> tuple[Outcome, int, float]:
-    """simulate() in a worker, with the worker's pid and its peak RSS so far (MB)."""
+    """simulate() in a worker, with the worker's pid and its own peak RSS so far (MB)."""
     outcome = simulate(spec)
-    return outcome, os.getpid(), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return outcome, os.getpid(), own_peak_rss_mb()
+
+
+def own_peak_rss_mb() -> float:
+    """This process's own peak RSS (MB): /proc's VmHWM. Linux keeps ru_maxrss across fork and exec,
+    so a worker's ru_maxrss is at least its parent's peak when it was started."""
+    try:
+        with open("/proc/self/status") as status:
+            return next(int(line.split()[1]) for line in status if line.startswith("VmHWM:")) / 1024
+    except (OSError, StopIteration):  # not Linux
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def sweep_figures(specs: list[RunSpec]) -> dict[str, float]:

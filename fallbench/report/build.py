@@ -10,8 +10,8 @@ import pandas as pd
 
 import fallbench.report.pages as pages
 import fallbench.report.ranking as ranking
-from fallbench.report.detection import detection_section
-from fallbench.report.drawing import Drawing, Figure
+from fallbench.report.detection import detection_job, detection_section
+from fallbench.report.drawing import Drawing, Figure, start_workers
 from fallbench.report.family import Family, find_families
 from fallbench.report.family_page import write_family_pages
 from fallbench.report.figure_files import files_only
@@ -30,6 +30,7 @@ from fallbench.report.papers.reshape import (
     preimpact_tables,
 )
 from fallbench.report.sections import Options, Sections
+from fallbench.report.selection import among_objects
 from fallbench.report.sensitivity import SWEEPS, sensitivity_runs, sensitivity_table
 from fallbench.report.summary_page import summary_answer, summary_files, summary_tables
 from fallbench.report.sweeps import median_table
@@ -43,10 +44,13 @@ def draw_sections(
     """Draw every figure into `out` (in parallel, the unchanged ones from the cache) and compute
     every table of the report; `halved` are the runs at another physics step, for the
     numerical-validity section only."""
+    drawing = Drawing(results, out, options.jobs, options.svg)
+    summary = summary_figure_jobs(runs, out) + direction_job(runs, results, out) + detection_job(runs, out)
+    drawing.add(sorted(summary, key=_slowest_first))  # drawn while the families are ranked
     per_robot = ranking.robots(runs)
     families = find_families(per_robot, options.filmstrips, options.unsettled)
-    drawing = Drawing(results, out, options.jobs, options.svg)
     figures, paper, pooled = _start_figures(drawing, runs, per_robot, families, results, out, options)
+    figures += summary
     tables = _tables(runs, halved, families)  # while the workers draw
     drawn = drawing.finish(figures)
     options.drawn, options.cached = drawn.drawn, drawn.cached
@@ -80,22 +84,32 @@ def _start_figures(
     out: Path,
     options: Options,
 ) -> tuple[list[Figure], dict[str, list[Figure]], dict[str, list[Pool]]]:
-    """Hand every figure to `drawing` as soon as its inputs are known; returns them in the report's
-    order, each family's per-point figures and the pools of families of the forest plots."""
-    strips = filmstrip_figures([p for f in families for p in f.picks], results, out)
-    # filmstrips first: a worker's first figure sets the memory baseline loky restarts it above
-    # (300 MB), and the renderer's libraries would otherwise count as a leak; then the figures
-    # that take longest, so that the workers finish together
-    drawing.add(strips[: options.jobs])
-    summary = summary_figure_jobs(runs, out) + direction_job(runs, results, out)
-    drawing.add(summary)
+    """Hand every figure of the families to `drawing` as soon as its inputs are known, those that
+    take longest first, so that the workers finish together; returns them in the report's order
+    (the summary's figures, added before, follow them), each family's per-point figures and the
+    pools of families of the forest plots."""
+    objects = frozenset(runs.run_id[among_objects(runs)])
+    strips = filmstrip_figures([p for f in families for p in f.picks], results, out, objects)
+    drawing.add(strips)  # in groups of a scene, each a few seconds
     paper = per_family_paper_jobs(families, results, out, options.paper_figures)
     paper_jobs = [job for family_jobs in paper.values() for job in family_jobs]
-    drawing.add(paper_jobs)
+    drawing.add(sorted(paper_jobs, key=_slowest_first))
     pooled = {robot: pools(robot_runs) for robot, robot_runs in per_robot.items()}
     forest = forest_jobs(pooled, families, out)
-    drawing.add(forest + strips[options.jobs :])
-    return strips + forest + paper_jobs + summary, paper, pooled
+    drawing.add(forest)
+    return strips + forest + paper_jobs, paper, pooled
+
+
+# CPU seconds a figure of each kind took on the main job's report (its .figure-cache.json): only
+# the order the workers take the figures in follows from them
+TYPICAL_CPU_S = {
+    **{"004": 1.3, "sweeps": 1.0, "002": 0.9, "detection": 0.9, "reshape": 0.5},
+    **{"preimpact": 0.4, "filmstrip": 0.3, "forest": 0.3},
+}
+
+
+def _slowest_first(figure: Figure) -> float:
+    return -TYPICAL_CPU_S.get(figure.name.split(":")[0], 0.2)
 
 
 def _tables(runs: pd.DataFrame, halved: pd.DataFrame, families: list[Family]) -> dict:
@@ -118,6 +132,9 @@ def _tables(runs: pd.DataFrame, halved: pd.DataFrame, families: list[Family]) ->
     }
 
 
+DRAWING_MODULES = ("fallbench.report.filmstrips", "fallbench.report.forest", "fallbench.report.sweeps")
+
+
 def build_report(
     results: Path, out: Path, progress: bool = True, options: Options | None = None
 ) -> list[Path]:
@@ -125,8 +142,9 @@ def build_report(
     and scenario family, summary.md. Returns the files written, index.html and summary.md first.
     Figures are drawn on `options.jobs` processes; those whose runs and code did not change since
     the last report into `out` are kept (drawing.py)."""
-    files_only()  # the detection page is drawn in this process
+    files_only()  # with one job, the figures are drawn in this process
     options = options or Options()
+    start_workers(options.jobs, DRAWING_MODULES)
     runs = store.load_metrics(results)
     if runs.empty:
         raise FileNotFoundError(f"{results}: the results store has no runs")
@@ -137,7 +155,7 @@ def build_report(
     sections = draw_sections(runs, halved, results, out, options)
     per_robot = ranking.robots(runs)
     family_pages = write_family_pages(out, sections)
-    detection = detection_section(runs, out)  # fall detection judged on the none + stiff runs
+    detection = detection_section(runs, out, sections.drawn)  # fall detection judged on the none + stiff runs
     if detection is not None:
         family_pages.append(detection)
 

@@ -11,7 +11,7 @@ import pandas as pd
 
 import fallbench.report.pages as pages
 from fallbench.analysis.detection import EARLIEST, GRID, STRATEGY_START, detection_table
-from fallbench.preimpact.reshape.controller import RESHAPE_PARAMS
+from fallbench.report.drawing import Drawn, Figure
 from fallbench.report.figure_files import save_figure
 from fallbench.scenario import Detection
 
@@ -22,8 +22,21 @@ DEFAULTS = {
     "tilt": Detection().tilt,
     "freefall": Detection().freefall,
 }
-STRATEGY_START_DEFAULTS = {"capture_point": RESHAPE_PARAMS["start_margin"], "tilt": Detection().tilt}
-COMBINED = {EARLIEST: DEFAULTS, STRATEGY_START: STRATEGY_START_DEFAULTS}
+
+
+def _reshape_start_margin() -> float:
+    from fallbench.preimpact.reshape.controller import RESHAPE_PARAMS  # here: it imports the dynamics
+
+    return RESHAPE_PARAMS["start_margin"]
+
+
+def combined() -> dict[str, dict[str, float]]:
+    """The combined detectors judged beside the single ones: the three at their defaults (the
+    earliest declares), and what starts reshape (the capture point at its start margin, or the tilt)."""
+    strategy_start = {"capture_point": _reshape_start_margin(), "tilt": Detection().tilt}
+    return {EARLIEST: DEFAULTS, STRATEGY_START: strategy_start}
+
+
 COMBINED_MARKERS = {EARLIEST: ("*", "earliest of the three"), STRATEGY_START: ("P", "reshape starts")}
 MARKERS = {"capture_point": "o", "tilt": "s", "freefall": "^"}
 COLUMNS = {
@@ -78,12 +91,31 @@ def trade_off_figure(table: pd.DataFrame, out: Path) -> list[Path]:
     return save_figure(fig, out, "detection_trade_off")
 
 
-def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
-    """Write detection.html from the store's none + stiff runs; None if too few of them."""
+def detection_figure(judged: pd.DataFrame, out: Path) -> tuple[list[Path], pd.DataFrame]:
+    """The trade-off figure of the judged runs (`detection_runs`) and its table: a drawing job."""
+    table = detection_table(judged, combined())
+    return trade_off_figure(table, out), table
+
+
+JOB = "detection"  # the name of `detection_job`'s figure
+
+
+def detection_job(runs: pd.DataFrame, out: Path) -> list[Figure]:
+    """`detection_figure` of the store's runs as a job for `drawing.Drawing`; none if too few runs."""
+    judged = detection_runs(runs)
+    return [] if judged.empty else [Figure(JOB, detection_figure, (judged, out), ())]
+
+
+def detection_section(runs: pd.DataFrame, out: Path, drawn: Drawn | None = None) -> Path | None:
+    """Write detection.html from the store's none + stiff runs; None if too few of them. With
+    `drawn`: its figure and table as `detection_job` drew them, else drawn here."""
     judged = detection_runs(runs)
     if judged.empty:
         return None
-    table = detection_table(judged, COMBINED)
+    if drawn is not None and JOB in drawn.payloads:
+        figures, table = drawn.paths[JOB], drawn.payloads[JOB]
+    else:
+        figures, table = detection_figure(judged, out)
     body = [
         "<h1>Fall detection</h1>",
         f"<p>{len(judged)} runs under none + stiff, each a fall (fallen at rest, or a body other than the "
@@ -94,10 +126,10 @@ def detection_section(runs: pd.DataFrame, out: Path) -> Path | None:
         + ", ".join(f"{d} {v:g}" for d, v in DEFAULTS.items())
         + "; 'earliest': the three together at their defaults, the first to fire declaring the fall, "
         "as a scenario's default `detection` does; 'strategy start': the capture point at "
-        f"reshape's default start margin ({RESHAPE_PARAMS['start_margin']:g} m) or the tilt, the "
+        f"reshape's default start margin ({_reshape_start_margin():g} m) or the tilt, the "
         "first to fire starting reshape (docs/detection.md).</p>",
     ]
-    body += [pages.image(p, out) for p in trade_off_figure(table, out) if p.suffix == ".png"]
+    body += [pages.image(p, out) for p in figures if p.suffix == ".png"]
     for robot, mine in table.groupby("robot"):
         body += [
             f"<h2>{robot}</h2>",

@@ -5,8 +5,8 @@ and the ids of the runs whose stored files it reads. Its cache key is a BLAKE2 d
 
 - the report's code version (the bytes of every `fallbench/report/*.py`, fallbench's and
   matplotlib's versions) and whether vector files are written (`--svg`);
-- the function's name and its arguments (DataFrames by content: `pandas.util.hash_pandas_object`
-  of every cell, plus the column names);
+- the function's name and its arguments (DataFrames by content: the column names, the bytes of
+  each numeric column and `pandas.util.hash_pandas_object` of every other cell);
 - the content of every run it reads: the bytes of each file in the run's folder.
 
 The cache (`.figure-cache.json` in the report folder) maps each figure's name to its key and
@@ -28,6 +28,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from fallbench.report.figure_files import FigureSkipped, files_only, set_vector
@@ -48,6 +49,7 @@ class Figure:
     draw: Callable[..., list[Path]]
     args: tuple = ()
     run_ids: tuple[str, ...] = ()  # runs whose stored files `draw` reads
+    group: str = ""  # figures added together with the same group are drawn by one worker, in turn
 
 
 @dataclass
@@ -82,7 +84,13 @@ def _value_digest(value: Any, digest: Any) -> None:
     are keyed by `run_ids`; the output folder is the cache's own), everything else by repr."""
     if isinstance(value, pd.DataFrame):
         digest.update(repr(list(value.columns)).encode())
-        digest.update(pd.util.hash_pandas_object(value.astype(object), index=False).to_numpy().tobytes())
+        for _, column in value.items():  # numbers by their bytes, the rest by pandas' hash of each cell
+            if isinstance(column.dtype, np.dtype) and column.dtype.kind in "biuf":
+                digest.update(column.dtype.str.encode() + column.to_numpy().tobytes())
+            else:
+                digest.update(
+                    pd.util.hash_pandas_object(column.astype(object), index=False).to_numpy().tobytes()
+                )
     elif isinstance(value, pd.Series):
         _value_digest(value.to_frame(), digest)
     elif isinstance(value, Path):
@@ -171,6 +179,11 @@ def _draw_one(figure: Figure, vector: bool) -> Outcome:
     return list(drawn), "", None, cpu
 
 
+def _draw_group(figures: list[Figure], vector: bool) -> list[Outcome]:
+    """In a worker: draw the figures in turn."""
+    return [_draw_one(figure, vector) for figure in figures]
+
+
 class Drawing:
     """Figures drawn as they are added: each one not in the cache goes to a worker process at once
     (with `jobs` > 1, loky's reusable executor; in this process, in turn, at `finish` with one job),
@@ -183,11 +196,14 @@ class Drawing:
         self.keys: dict[str, str] = {}
         self.result = Drawn()
         self.todo: dict[str, Figure] = {}  # drawn in this process at `finish` (one job)
-        self.pending: dict[str, Future] = {}  # drawn by the workers
+        self.pending: list[tuple[list[str], Future]] = []  # drawn by the workers, a group per task
         self.pool: Any = None
 
     def add(self, figures: Iterable[Figure]) -> None:
-        """Take each figure from the cache, or start drawing it."""
+        """Take each figure from the cache, or start drawing it: in the order given, the figures of
+        a group together, at the place of its first (e.g. the filmstrips of one scene, so that one
+        worker makes its renderer)."""
+        tasks: dict[str, list[Figure]] = {}
         for figure in figures:
             if figure.name in self.keys:
                 raise ValueError("figure names must be unique within a report")
@@ -196,10 +212,12 @@ class Drawing:
             if entry and entry["key"] == self.keys[figure.name] and _complete(self.out, entry):
                 self._take_cached(figure.name, entry)
             elif self.jobs > 1:
-                self.pool = self.pool or _executor(self.jobs)
-                self.pending[figure.name] = self.pool.submit(_draw_one, figure, self.vector)
+                tasks.setdefault(f"group:{figure.group}" if figure.group else figure.name, []).append(figure)
             else:
                 self.todo[figure.name] = figure
+        for task in tasks.values():
+            self.pool = self.pool or _executor(self.jobs)
+            self.pending.append(([f.name for f in task], self.pool.submit(_draw_group, task, self.vector)))
 
     def _take_cached(self, name: str, entry: dict[str, Any]) -> None:
         self.result.paths[name] = [self.out / p for p in entry["files"]]
@@ -213,7 +231,8 @@ class Drawing:
         """Wait for every figure added, save the cache; returns their files and notes, in the
         order of `order` (the same figures) if given, else as added."""
         outcomes = {name: _draw_one(figure, self.vector) for name, figure in self.todo.items()}
-        outcomes |= {name: future.result() for name, future in self.pending.items()}
+        for names, future in self.pending:
+            outcomes |= dict(zip(names, future.result()))
         for name, (paths, note, payload, cpu) in outcomes.items():
             self._take_drawn(name, paths, note, payload, cpu)
         self.result.drawn = len(outcomes)
@@ -256,11 +275,42 @@ class Drawing:
                 stale.unlink()
 
 
+WORKER_GROWTH = int(2e9)  # bytes a drawing worker may grow by over its size after its first figure
+
+
 def _executor(jobs: int) -> Any:
     """loky's reusable pool of `jobs` worker processes (started by the first figure sent to it)."""
     from joblib.externals.loky import get_reusable_executor
 
-    return get_reusable_executor(max_workers=jobs)
+    return get_reusable_executor(max_workers=jobs, initializer=_worker_start)
+
+
+def start_workers(jobs: int, modules: tuple[str, ...] = ()) -> None:
+    """With `jobs` > 1, start the drawing workers now and have them import `modules` (those most
+    figures are drawn by: each worker draws every kind), while this process loads the runs."""
+    if jobs > 1:
+        pool = _executor(jobs)
+        for _ in range(jobs):
+            pool.submit(_warm_up, modules)
+
+
+def _warm_up(modules: tuple[str, ...]) -> None:
+    import importlib
+
+    files_only()
+    for module in modules:
+        importlib.import_module(module)
+
+
+def _worker_start() -> None:
+    """In each worker, before its first figure: loky restarts a worker whose memory grew by 300 MB
+    over its size after its first figure, and the first filmstrip a worker renders adds ~430 MB
+    that it keeps (the OpenGL libraries, the renderer's buffers, the scene's meshes), whatever ran
+    first; a restart costs a new process and its imports, so the figures can come in any order."""
+    from joblib.externals.loky import process_executor
+
+    if hasattr(process_executor, "_MAX_MEMORY_LEAK_SIZE"):
+        process_executor._MAX_MEMORY_LEAK_SIZE = WORKER_GROWTH
 
 
 def draw(

@@ -126,9 +126,16 @@ def figure_name(run_id: str) -> str:
     return f"filmstrip:{run_id}"
 
 
-def filmstrip_figures(chosen: list[Pick], results: Path, out: Path) -> list[Figure]:
+def filmstrip_figures(
+    chosen: list[Pick], results: Path, out: Path, among_objects: frozenset[str] = frozenset()
+) -> list[Figure]:
     """One figure per chosen run (a run chosen twice is drawn once), those of one robot and family
-    next to each other: a worker draws neighbours in turn and reuses the renderer of their scene."""
+    next to each other. Runs that look alike are one drawing group, drawn in turn by one worker
+    with the renderer of their scene (made once, ~0.35 s): a robot's runs on open ground, and
+    each family's runs among objects (`among_objects`: their run ids)."""
     ordered = sorted(chosen, key=lambda p: (p.robot, p.family))  # stable: ranking order within
+    scene = {p.run_id: f"{p.robot}:{p.family if p.run_id in among_objects else ''}" for p in ordered}
     run_ids = list(dict.fromkeys(p.run_id for p in ordered))
-    return [Figure(figure_name(r), draw_filmstrip, (results, r, out), (r,)) for r in run_ids]
+    return [
+        Figure(figure_name(r), draw_filmstrip, (results, r, out), (r,), f"scene:{scene[r]}") for r in run_ids
+    ]

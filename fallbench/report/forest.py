@@ -16,6 +16,7 @@ from __future__ import annotations
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -52,16 +53,16 @@ def paired_changes(runs: pd.DataFrame, done: Ranked | None = None) -> pd.DataFra
     runs = paired.narrow(runs, measures_for(runs))
     ok = runs[runs.status == "ok"]
     measures = measures_for(ok)
-    if paired.arm_runs(ok, REFERENCE).empty:
+    indexed = paired.ArmRuns(ok)
+    if not len(indexed.first_rows(REFERENCE)):
         return pd.DataFrame(columns=COLUMNS)
     done = done or ranked(runs)
     columns = [m.column for m in measures]
-    reference_runs = paired.arm_runs(ok, REFERENCE, columns)
     rows = []
     for arm in arm_order(runs, done):
         if arm == REFERENCE:
             continue
-        pair_rows = paired.pairs(ok, arm, columns, reference_runs)
+        pair_rows = indexed.pairs(arm, columns)
         base = {"pre_impact": arm[0], "policy": arm[1], "name": row_name(done, arm)}
         for measure in measures:
             change = paired.change(pair_rows, measure.column)
@@ -105,9 +106,12 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
         squeeze=False,
     )
     y = np.arange(len(arms))[::-1]  # the best at the top
+    panels: dict[str, dict[tuple[str, str], Any]] = {measure: {} for measure in measures}
+    for change in changes.itertuples(index=False):  # a panel's rows by arm, read once
+        panels[change.measure][(change.pre_impact, change.policy)] = change
     for ax, measure in zip(axes[0], measures):
-        rows = changes[changes.measure == measure].set_index(["pre_impact", "policy"]).reindex(arms)
-        _panel(ax, measure, rows, y, lower_is_better)
+        rows = [panels[measure].get(arm) for arm in arms]  # None: the arm lacks the measure
+        _panel(ax, measure, arms, rows, y, lower_is_better)
     pairs = changes.groupby(["pre_impact", "policy"], sort=False).pairs.max()
     names = changes.drop_duplicates(["pre_impact", "policy"]).set_index(["pre_impact", "policy"]).name
     labels = [f"{names[arm]} (n={int(pairs[arm])})" for arm in arms]
@@ -120,14 +124,22 @@ def forest_figure(changes: pd.DataFrame, title: str, out: Path, stem: str) -> li
     return save_figure(fig, out, stem, _margins(fig, label_inches, title_lines))
 
 
-def _panel(ax, measure: str, rows: pd.DataFrame, y: np.ndarray, lower_is_better: dict[str, bool]) -> None:
+def _panel(
+    ax,
+    measure: str,
+    arms: list[tuple[str, str]],
+    rows: list[Any],
+    y: np.ndarray,
+    lower_is_better: dict[str, bool],
+) -> None:
     """One measure's panel of the forest plot: each arm's median change (dot) and 95 % interval (bar)
-    on its row `y`, the line of no change, the axis and its title."""
-    first = rows.iloc[0]
-    references = rows.reference.dropna().unique()
+    on its row `y` (`rows[k]` None: arm k lacks the measure), the line of no change, the axis and its
+    title."""
+    first = rows[0]
+    references = pd.unique(pd.Series([r.reference for r in rows if r is not None]).dropna())
     ax.axvline(0.5 if measure == IMPROVEMENT else 0.0, color="grey", linewidth=1.0)
-    for k, (arm, row) in enumerate(rows.iterrows()):
-        if np.isnan(row.value):
+    for k, (arm, row) in enumerate(zip(arms, rows)):
+        if row is None or np.isnan(row.value):
             continue
         low, high = (row.low, row.high) if not np.isnan(row.low) else (row.value, row.value)
         ax.plot([low, high], [y[k], y[k]], color=colour(arm[1]), linewidth=2.2, solid_capstyle="butt")
@@ -152,7 +164,8 @@ def _panel(ax, measure: str, rows: pd.DataFrame, y: np.ndarray, lower_is_better:
     ax.tick_params(labelsize=7.5)
     ax.xaxis.set_major_locator(MaxNLocator(nbins=3))  # wide numbers (forces in N) stay apart
     ax.xaxis.set_major_formatter(FuncFormatter(_short_number))
-    if measure != IMPROVEMENT and not np.nanmax(np.abs(rows[["low", "high", "value"]].to_numpy()), initial=0):
+    shown = [[r.low, r.high, r.value] for r in rows if r is not None]
+    if measure != IMPROVEMENT and not np.nanmax(np.abs(np.array(shown, dtype=float)), initial=0):
         ax.set_xlim(-1.0, 1.0)  # every change 0: a readable axis, not +-0.05
     for row in y[1::2]:
         ax.axhspan(row - 0.5, row + 0.5, color="#f2f2f2", zorder=0)

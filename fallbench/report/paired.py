@@ -55,21 +55,96 @@ def narrow(runs: pd.DataFrame, measures: Sequence[Measure]) -> pd.DataFrame:
     return kept.astype({c: object for c in LABELS if c in kept})
 
 
+class ArmRuns:
+    """A family's successful runs (`ok`) by arm, indexed once: each arm's rows, its first row per
+    pair key, and each pair key as one integer. Selecting an arm's rows by comparing label columns,
+    then joining them with the reference's on the keys, was most of the report's ranking time."""
+
+    def __init__(self, ok: pd.DataFrame) -> None:
+        self.ok = ok
+        self.keys = keys_of(ok)
+        rows = ok.groupby(["pre_impact", "policy"], sort=False).indices if len(ok) else {}
+        self._rows: dict[Arm, np.ndarray] = {(str(s), str(p)): r for (s, p), r in rows.items()}
+        first = ~ok.duplicated([*self.keys, "pre_impact", "policy"]).to_numpy() if len(ok) else None
+        self._first = {arm: r[first[r]] for arm, r in self._rows.items()}
+        keyed = ok.groupby(self.keys, sort=False, dropna=False) if self.keys and len(ok) else None
+        self._codes = keyed.ngroup().to_numpy() if keyed is not None else np.zeros(len(ok), dtype=int)
+        self._floats: dict[str, np.ndarray] = {}
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def values(self, column: str) -> np.ndarray:
+        """The column as floats, one per row of `ok`."""
+        if column not in self._floats:
+            self._floats[column] = self.ok[column].astype(float).to_numpy()
+        return self._floats[column]
+
+    def all_rows(self, arm: Arm) -> np.ndarray:
+        """Positions in `ok` of every run of the arm, in order."""
+        return self._rows.get(arm, np.zeros(0, dtype=int))
+
+    def first_rows(self, arm: Arm) -> np.ndarray:
+        """Positions in `ok` of the arm's first run per pair key, in order."""
+        return self._first.get(arm, np.zeros(0, dtype=int))
+
+    def runs(self, arm: Arm, columns: Sequence[str] | None = None) -> pd.DataFrame:
+        """The arm's runs, one per pair key (the keys and `columns` only, if given)."""
+        chosen = self.ok.iloc[self.first_rows(arm)]
+        return chosen if columns is None else chosen[self.keys + list(columns)]
+
+    def pair_rows(self, arm: Arm, reference: Arm = REFERENCE) -> tuple[np.ndarray, np.ndarray]:
+        """Positions in `ok` of the arm's runs that have a `reference` run on the same pair key,
+        in order, and of those reference runs."""
+        mine, theirs = self.first_rows(arm), self.first_rows(reference)
+        by_key = np.full(int(self._codes.max(initial=-1)) + 1, -1)
+        by_key[self._codes[theirs]] = theirs
+        matched = by_key[self._codes[mine]]
+        return mine[matched >= 0], matched[matched >= 0]
+
+    def pairs(self, arm: Arm, columns: Sequence[str]) -> pd.DataFrame:
+        """The arm's runs joined with their reference run (`<column>:reference`); runs without one
+        are left out."""
+        mine, theirs = self.pair_rows(arm)
+        joined = {c: self._array(c)[mine] for c in [*self.keys, *columns]}
+        return pd.DataFrame(joined | {f"{c}:reference": self._array(c)[theirs] for c in columns})
+
+    def _array(self, column: str) -> np.ndarray:
+        if column not in self._arrays:
+            self._arrays[column] = self.ok[column].to_numpy()
+        return self._arrays[column]
+
+    def identical_groups(self, arms: Sequence[Arm], columns: Sequence[str]) -> list[list[Arm]]:
+        """The arms in groups whose runs have the same pair keys and the same value on every column,
+        pair by pair (e.g. a strategy that never acted and the same policy without it); each group in
+        the order of `arms`, its first arm the one that names it."""
+
+        def falls(arm: Arm) -> tuple[np.ndarray, np.ndarray]:
+            rows = self.first_rows(arm)
+            rows = rows[np.argsort(self._codes[rows], kind="stable")]
+            return self._codes[rows], np.array([self.values(c)[rows] for c in columns])
+
+        def same(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
+            return np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1], equal_nan=True)
+
+        seen = {arm: falls(arm) for arm in arms}
+        groups: list[list[Arm]] = []
+        for arm in arms:
+            group = next((g for g in groups if same(seen[g[0]], seen[arm])), None)
+            if group is None:
+                groups.append([arm])
+            else:
+                group.append(arm)
+        return groups
+
+
 def arm_runs(ok: pd.DataFrame, arm: Arm, columns: Sequence[str] | None = None) -> pd.DataFrame:
-    """The arm's successful runs, one per pair key (only the keys and `columns`, if given: a store
-    has hundreds of columns, and copying them all made pairing the report's slowest table)."""
-    keys = keys_of(ok)
-    mine = (ok.pre_impact == arm[0]) & (ok.policy == arm[1])
-    return (ok.loc[mine] if columns is None else ok.loc[mine, keys + list(columns)]).drop_duplicates(keys)
+    """The arm's successful runs, one per pair key (only the keys and `columns`, if given)."""
+    return ArmRuns(ok).runs(arm, columns)
 
 
-def pairs(
-    ok: pd.DataFrame, arm: Arm, columns: Sequence[str], reference: pd.DataFrame | None = None
-) -> pd.DataFrame:
+def pairs(ok: pd.DataFrame, arm: Arm, columns: Sequence[str]) -> pd.DataFrame:
     """The arm's runs joined with their reference run (`<column>:reference`); runs without one are
-    left out. `reference`: `arm_runs(ok, REFERENCE, columns)`, if already selected."""
-    reference = arm_runs(ok, REFERENCE, columns) if reference is None else reference
-    return arm_runs(ok, arm, columns).merge(reference, on=keys_of(ok), suffixes=("", ":reference"))
+    left out (`ArmRuns.pairs`)."""
+    return ArmRuns(ok).pairs(arm, columns)
 
 
 def change(pair_rows: pd.DataFrame, column: str) -> np.ndarray:
@@ -79,25 +154,8 @@ def change(pair_rows: pd.DataFrame, column: str) -> np.ndarray:
 
 
 def identical_groups(ok: pd.DataFrame, arms: Sequence[Arm], columns: Sequence[str]) -> list[list[Arm]]:
-    """The arms in groups whose runs have the same pair keys and the same value on every column,
-    pair by pair (e.g. a strategy that never acted and the same policy without it); each group in
-    the order of `arms`, its first arm the one that names it."""
-    keys = keys_of(ok)
-    runs = {
-        arm: arm_runs(ok, arm, columns)
-        .astype({c: float for c in columns})
-        .sort_values(keys)
-        .reset_index(drop=True)
-        for arm in arms
-    }
-    groups: list[list[Arm]] = []
-    for arm in arms:
-        same = next((g for g in groups if runs[g[0]].equals(runs[arm])), None)
-        if same is None:
-            groups.append([arm])
-        else:
-            same.append(arm)
-    return groups
+    """`ArmRuns.identical_groups`."""
+    return ArmRuns(ok).identical_groups(arms, columns)
 
 
 def clearly_worse(estimate: Estimate, lower_is_better: bool = True) -> bool:

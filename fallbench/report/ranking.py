@@ -54,17 +54,19 @@ def _arms(runs: pd.DataFrame) -> list[Arm]:
     return [(s, p) for s in strategies for p in ordered(runs[runs.pre_impact == s].policy.unique())]
 
 
-def estimates(runs: pd.DataFrame, arms: list[Arm] | None = None) -> dict[Arm, dict[str, Estimate]]:
-    """(strategy, policy) -> measure column -> estimate over the family's ok runs (points x seeds)."""
-    ok = runs[runs.status == "ok"]
+def estimates(
+    runs: pd.DataFrame, arms: list[Arm] | None = None, indexed: paired.ArmRuns | None = None
+) -> dict[Arm, dict[str, Estimate]]:
+    """(strategy, policy) -> measure column -> estimate over the family's ok runs (points x seeds).
+    `indexed`: the ok runs' `paired.ArmRuns`, if already made."""
+    ok = runs[runs.status == "ok"] if indexed is None else indexed.ok
+    indexed = indexed or paired.ArmRuns(ok)
     return {
-        (s, p): {
-            m.column: bootstrap(
-                ok.loc[(ok.pre_impact == s) & (ok.policy == p), m.column].astype(float), m.statistic
-            )
+        arm: {
+            m.column: bootstrap(indexed.values(m.column)[indexed.all_rows(arm)], m.statistic)
             for m in measures_for(runs)
         }
-        for s, p in (_arms(ok) if arms is None else arms)
+        for arm in (_arms(ok) if arms is None else arms)
     }
 
 
@@ -87,12 +89,12 @@ def ranked(runs: pd.DataFrame) -> Ranked:
     found = measures_for(runs)
     runs = paired.narrow(runs, found)
     ok = runs[runs.status == "ok"]
-    groups = paired.identical_groups(ok, _arms(ok), [m.column for m in found])
-    table = estimates(runs, [g[0] for g in groups])
+    indexed = paired.ArmRuns(ok)
+    groups = indexed.identical_groups(_arms(ok), [m.column for m in found])
+    table = estimates(runs, [g[0] for g in groups], indexed)
     same = {g[0]: g[1:] for g in groups}
     harm_measures = [m for m in found if m.column in paired.HARM_MEASURES]
-    reference = paired.arm_runs(ok, paired.REFERENCE, [m.column for m in harm_measures])
-    harm = {arm: _harm(ok, arm, harm_measures, reference) for arm in table}
+    harm = {arm: _harm(indexed, arm, harm_measures) for arm in table}
     if not table:
         return Ranked(pd.DataFrame(), table, found, same, harm)
     values = pd.DataFrame({arm: {m.column: e[m.column].value for m in found} for arm, e in table.items()}).T
@@ -114,15 +116,12 @@ def ranked(runs: pd.DataFrame) -> Ranked:
     return Ranked(ranking, table, found, same, harm)
 
 
-def _harm(
-    ok: pd.DataFrame, arm: Arm, harm_measures: list[Measure], reference: pd.DataFrame
-) -> list[tuple[str, Estimate]]:
-    """The harm measures on which the arm's paired change against `none` + `stiff` (`reference`:
-    its runs, `paired.arm_runs`) is clearly worse."""
+def _harm(indexed: paired.ArmRuns, arm: Arm, harm_measures: list[Measure]) -> list[tuple[str, Estimate]]:
+    """The harm measures on which the arm's paired change against `none` + `stiff` is clearly worse."""
     if arm == paired.REFERENCE:
         return []
     worse = []
-    pair_rows = paired.pairs(ok, arm, [m.column for m in harm_measures], reference)
+    pair_rows = indexed.pairs(arm, [m.column for m in harm_measures])
     for measure in harm_measures:
         estimate = bootstrap(paired.change(pair_rows, measure.column), measure.change)
         if paired.clearly_worse(estimate, measure.lower_is_better):

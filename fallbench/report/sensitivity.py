@@ -15,7 +15,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import pandas as pd
 
-from fallbench.analysis.metrics import LANDING_WINDOW
 from fallbench.report.figure_files import save_figure
 from fallbench.report.grouping import with_robot
 from fallbench.report.style import colour, ordered
@@ -151,6 +150,8 @@ def sensitivity_figure(swept: pd.DataFrame, out: Path, sweep: Sweep = SWEEPS[0])
         bbox_to_anchor=(1.02, 1),
         loc="upper left",
     )
+    from fallbench.analysis.metrics import LANDING_WINDOW  # here: the metrics import the simulation's modules
+
     names = ", ".join(sorted(swept.scenario.unique()))
     fig.suptitle(
         f"Sensitivity to {sweep.title} ({names}, {len(swept)} runs; landing = first "

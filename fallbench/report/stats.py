@@ -8,7 +8,6 @@ from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
-from scipy import stats
 
 CONFIDENCE = 0.95
 RESAMPLES = 2000
@@ -72,9 +71,47 @@ def _interval(
     data: bytes, statistic: str, confidence: float, resamples: int, seed: int
 ) -> tuple[float, float]:
     """The percentile-bootstrap interval of sorted float64 values (as bytes: the report asks for
-    the same sample's interval more than once, e.g. a paired change in its ranking and its forest)."""
+    the same sample's interval more than once, e.g. a paired change in its ranking and its forest).
+    The same numbers as `scipy.stats.bootstrap(..., method="percentile", vectorized=True,
+    rng=np.random.default_rng(seed))`, bit for bit: the same resamples (`_resamples`), the same
+    statistic over them and scipy's default ("linear") quantiles of their distribution, without
+    scipy's checks and its import (1 ms a call, 0.9 s to import)."""
+    sample = np.frombuffer(data)
+    distribution = {"median": np.median, "mean": np.mean}[statistic](
+        sample[_resamples(len(sample), resamples, seed)], axis=-1
+    )
+    if np.isnan(distribution).any():  # e.g. inf - inf in a mean: scipy's own NaN handling
+        return _scipy_interval(sample, statistic, confidence, resamples, seed)
+    alpha = (1 - confidence) / 2
+    return _quantile(np.sort(distribution), alpha), _quantile(np.sort(distribution), 1 - alpha)
+
+
+@cache
+def _resamples(n: int, resamples: int, seed: int) -> np.ndarray:
+    """The indices of the bootstrap's resamples of n values, (resamples, n): those scipy draws
+    from a fresh `default_rng(seed)` (they depend only on n, so each n is drawn once)."""
+    return np.random.default_rng(seed).integers(0, n, size=(resamples, n), dtype="int64")
+
+
+def _quantile(ordered: np.ndarray, p: float) -> float:
+    """`scipy.stats.quantile(x, p)` (method "linear") of sorted values, written as scipy computes
+    it: the index p n + (1 - p) split into its integer and fractional parts."""
+    n = float(len(ordered))
+    position = p * n + (1 - p)
+    above = position // 1
+    below = above - 1
+    fraction = 0.0 if below < 0 else position % 1
+    below, above = min(max(below, 0.0), n - 1), min(max(above, 0.0), n - 1)
+    return float((1 - fraction) * ordered[int(below)] + fraction * ordered[int(above)])
+
+
+def _scipy_interval(
+    sample: np.ndarray, statistic: str, confidence: float, resamples: int, seed: int
+) -> tuple[float, float]:
+    from scipy import stats
+
     result = stats.bootstrap(
-        (np.frombuffer(data),),
+        (sample,),
         {"median": np.median, "mean": np.mean}[statistic],
         n_resamples=resamples,
         confidence_level=confidence,
