@@ -241,6 +241,42 @@ def test_a_figure_is_drawn_again_only_when_its_runs_or_arguments_change(tmp_path
     assert drawing.draw(jobs("y"), results, out, vector=True).drawn == 2  # SVG wanted: drawn again
 
 
+def test_a_group_of_figures_is_one_task_for_one_worker_and_each_is_cached_by_its_name(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """Figures added together with the same group (a scene's filmstrips) go to the workers as one
+    task, at the place of the group's first figure; each keeps its own files and cache entry."""
+    from concurrent.futures import Future
+
+    results, out = tmp_path / "results", tmp_path / "out"
+    out.mkdir()
+    _store_with_runs(results, ["a", "b", "c"])
+    tasks: list[list[str]] = []
+
+    class Pool:  # draws each task at once, in this process
+        def submit(self, function, figures, vector):
+            tasks.append([f.name for f in figures])
+            future: Future = Future()
+            future.set_result(function(figures, vector))
+            return future
+
+    monkeypatch.setattr(drawing, "_executor", lambda jobs: Pool())
+    figures = [
+        drawing.Figure("fig_a", _count_and_write, (out, "a", "x"), ("a",), group="scene"),
+        drawing.Figure("fig_b", _count_and_write, (out, "b", "x"), ("b",)),
+        drawing.Figure("fig_c", _count_and_write, (out, "c", "x"), ("c",), group="scene"),
+    ]
+    first = drawing.draw(figures, results, out, jobs=2)
+    assert tasks == [["fig_a", "fig_c"], ["fig_b"]]
+    assert first.drawn == 3 and first.paths == {
+        n: [out / f"{n[-1]}.txt"] for n in ("fig_a", "fig_b", "fig_c")
+    }
+    tasks.clear()
+    (out / "c.txt").unlink()
+    again = drawing.draw(figures, results, out, jobs=2)
+    assert tasks == [["fig_c"]] and (again.drawn, again.cached) == (1, 2)
+
+
 # ---------------------------------------------------------------- the whole report
 
 

@@ -64,7 +64,7 @@ def test_a_sweep_whose_every_run_fails_is_summarised(tmp_path: Path, sweep, monk
     """Runs stored with status `error` and no metric columns still give the summary and its count."""
     from fallbench.analysis import metrics
 
-    def broken(recording):
+    def broken(*arguments):
         raise RuntimeError("planted")
 
     monkeypatch.setattr(metrics, "compute_metrics", broken)

@@ -273,13 +273,13 @@ def replay_columns(rec: Recording) -> dict[str, np.ndarray]:
     return {f"qpos:{i}": sampled[:, i] for i in range(rec.qpos.shape[1])}
 
 
-def compute_metrics(rec: Recording) -> dict[str, object]:
+def compute_metrics(rec: Recording, forces: dict[str, np.ndarray] | None = None) -> dict[str, object]:
     """One run's row: sensor peaks, joints and torques, the landing, timing, outcome and the
-    controllers' own statistics."""
+    controllers' own statistics (`forces`: `group_forces(rec)`, if already computed)."""
     impact = first_contact_time(rec)
     switched = rec.switch_time[np.isfinite(rec.switch_time)]
     takeover = float(switched.min()) if len(switched) else None  # s: the first motor under the policy
-    forces = group_forces(rec)
+    forces = group_forces(rec) if forces is None else forces
     row: dict[str, object] = {}
     row.update(_imu_and_joints(rec, impact, takeover))
     row.update(_forces(rec, forces, impact))
@@ -381,8 +381,8 @@ def _controller_statistics(rec: Recording, row: dict[str, object]) -> dict[str, 
     return stats
 
 
-def timeseries(rec: Recording) -> pd.DataFrame:
-    """The signals the paper figures need, at the physics rate, float32."""
+def timeseries(rec: Recording, forces: dict[str, np.ndarray] | None = None) -> pd.DataFrame:
+    """The signals the paper figures need, at the physics rate, float32 (`forces`: as in compute_metrics)."""
     world = rec.world
     acc = world.sensor(rec.sensordata, "imu_acc")
     columns: dict[str, np.ndarray] = {
@@ -397,7 +397,7 @@ def timeseries(rec: Recording) -> pd.DataFrame:
         j = world.joint_names.index(joint)
         columns[f"q:{joint}"] = rec.qpos[:, world.qpos_adr[j]]
         columns[f"tau:{joint}"] = rec.actuator_force[:, j]
-    for group, force in group_forces(rec).items():
+    for group, force in (group_forces(rec) if forces is None else forces).items():
         columns[f"force:{group}"] = force
     if rec.scenario.obstacles:  # for the top-down plots of falls among objects (004)
         com = com_path(rec)

@@ -146,7 +146,7 @@ class Outcome:
 def simulate(spec: RunSpec, keep_series: bool = True) -> Outcome:
     """Run one case and compute its metrics (and, with `keep_series`, its time series); never
     raises for a failing simulation. The metrics come from the recording, never from the series."""
-    from fallbench.analysis.metrics import compute_metrics, timeseries
+    from fallbench.analysis.metrics import compute_metrics, group_forces, timeseries
     from fallbench.assembly import simulate_named
 
     started = time.perf_counter()
@@ -156,8 +156,9 @@ def simulate(spec: RunSpec, keep_series: bool = True) -> Outcome:
         recording = simulate_named(spec.point.scenario, spec.policy, spec.pre_impact)
         row["status"], row["error"] = recording.status, recording.error
         with np.errstate(all="ignore"):  # a diverged recording holds NaNs; its metrics may too
-            row.update(compute_metrics(recording))
-            series = timeseries(recording) if keep_series else None
+            forces = group_forces(recording)  # read by both (1.6 ms a 3000-step run)
+            row.update(compute_metrics(recording, forces))
+            series = timeseries(recording, forces) if keep_series else None
     except Exception as exc:  # a failing run is stored, not raised: the sweep goes on
         row["status"] = "error"
         where = traceback.extract_tb(exc.__traceback__)[-1]
