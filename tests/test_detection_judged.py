@@ -108,6 +108,25 @@ def test_the_report_page_needs_enough_none_stiff_runs(tmp_path) -> None:
     assert detection_section(runs.assign(policy="adaptive_qp"), tmp_path / "other") is None
 
 
+def test_each_strategy_starting_on_its_own_margin_is_judged(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The page judges what starts every registered strategy with a start margin of its own, read
+    from the strategy's defaults: reshape's alone today, and a plug-in's beside it."""
+    from fallbench.preimpact.none import NoStrategy
+    from fallbench.registry import strategies
+    from fallbench.report.detection import STRATEGY_START, combined, strategy_starts
+
+    assert strategy_starts() == {"reshape": 0.1}
+    assert combined()[STRATEGY_START]["capture_point"] == 0.1
+
+    class EarlyStart(NoStrategy):
+        name = "early_start"
+        start_margin = 0.05
+
+    monkeypatch.setitem(strategies(), "early_start", EarlyStart)
+    assert strategy_starts() == {"early_start": 0.05, "reshape": 0.1}
+    assert combined()[f"{STRATEGY_START} (early_start)"]["capture_point"] == 0.05
+
+
 def test_a_fall_is_over_after_a_whole_hold_inside_the_support_and_upright() -> None:
     watch = FallWatch(margin=0.01, tilt=15.0, hold=0.05)
     steps = [(0.0, 0.2, 5), (0.01, -0.02, 5), (0.02, math.nan, 5), (0.03, -0.02, 5), (0.05, -0.02, 20)]

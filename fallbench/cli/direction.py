@@ -27,7 +27,7 @@ def direction_authority_command(
     """Steering authority in free space: per robot, push force and direction, the span of fall
     directions (deflection from `none`'s, deg) that the forced candidates of 004 reach.
     Run first: fallbench run sweep scenarios/direction_authority.yaml --pre-impact none,direction --policies stiff"""
-    from fallbench.report.direction_judge import authority_from_store
+    from fallbench.report.papers.direction_judge import authority_from_store
 
     table = _store_table(
         authority_from_store,
@@ -48,7 +48,7 @@ def direction_radius_command(
     """The robot radius of 004's grown circles, measured per robot from `none`'s falls past one object:
     the widest lateral offset of the object from the fall's line at which the fall still touched it.
     Run first: fallbench run sweep scenarios/direction_bearing.yaml --pre-impact none --policies stiff"""
-    from fallbench.report.direction_judge import radius_from_store
+    from fallbench.report.papers.direction_judge import radius_from_store
 
     _store_table(radius_from_store, results, f"{results}: no `none` falls past a single object")
 

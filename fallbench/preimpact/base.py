@@ -60,6 +60,12 @@ class Strategy(ABC):
         self.world, self.scenario = world, scenario
 
     @classmethod
+    def default_start_margin(cls) -> float | None:
+        """m: `start_margin` at the strategy's default parameters (its `start_margin` parameter, if
+        it has one); None: it starts when the scenario's detectors declare the fall."""
+        return cls.defaults.get("start_margin", cls.start_margin)
+
+    @classmethod
     def check(cls, scenario: Scenario) -> tuple[str, str] | None:
         """(key, reason) of the first problem of this strategy's parameters in `scenario` that their
         types cannot show (a model file that does not fit the robot), else None. Run when scenario

@@ -24,20 +24,41 @@ DEFAULTS = {
 }
 
 
-def _reshape_start_margin() -> float:
-    from fallbench.preimpact.reshape.controller import RESHAPE_PARAMS  # here: it imports the dynamics
+def strategy_starts() -> dict[str, float]:
+    """Strategy name -> its default start margin (m), for the registered strategies that start on
+    their own capture-point margin rather than on the declared fall."""
+    from fallbench.registry import strategies  # here: it imports every controller and its dynamics
 
-    return RESHAPE_PARAMS["start_margin"]
+    starts = {name: strategy.default_start_margin() for name, strategy in strategies().items()}
+    return {name: margin for name, margin in sorted(starts.items()) if margin is not None}
+
+
+def start_key(name: str, starts: dict[str, float]) -> str:
+    """The combined detector's name of strategy `name`'s start: `STRATEGY_START` when one strategy
+    declares a start margin, one per strategy when several do."""
+    return STRATEGY_START if len(starts) == 1 else f"{STRATEGY_START} ({name})"
 
 
 def combined() -> dict[str, dict[str, float]]:
     """The combined detectors judged beside the single ones: the three at their defaults (the
-    earliest declares), and what starts reshape (the capture point at its start margin, or the tilt)."""
-    strategy_start = {"capture_point": _reshape_start_margin(), "tilt": Detection().tilt}
-    return {EARLIEST: DEFAULTS, STRATEGY_START: strategy_start}
+    earliest declares), and what starts each strategy with a start margin of its own (the capture
+    point at that margin, or the tilt)."""
+    starts = strategy_starts()
+    started = {
+        start_key(name, starts): {"capture_point": margin, "tilt": Detection().tilt}
+        for name, margin in starts.items()
+    }
+    return {EARLIEST: DEFAULTS} | started
 
 
-COMBINED_MARKERS = {EARLIEST: ("*", "earliest of the three"), STRATEGY_START: ("P", "reshape starts")}
+def combined_markers() -> dict[str, tuple[str, str]]:
+    """Combined detector -> (marker, legend label) on the trade-off figure."""
+    starts = strategy_starts()
+    started = {start_key(name, starts): ("P", f"{name} starts") for name in starts}
+    return {EARLIEST: ("*", "earliest of the three")} | started
+
+
+MARKERS = {EARLIEST: ("*", "earliest of the three"), STRATEGY_START: ("P", "reshape starts")}
 MARKERS = {"capture_point": "o", "tilt": "s", "freefall": "^"}
 COLUMNS = {
     "detector": "detector",
@@ -77,7 +98,7 @@ def trade_off_figure(table: pd.DataFrame, out: Path) -> list[Path]:
             for ax, y in zip(row, ("miss_rate", "lead_median_s")):
                 ax.plot(mine.false_alarm_rate, mine[y], marker=MARKERS[detector], label=detector)
                 ax.plot(default.false_alarm_rate, default[y], "o", ms=14, mfc="none", mec="black")
-        for name, (marker, label) in COMBINED_MARKERS.items():
+        for name, (marker, label) in combined_markers().items():
             mine = table[(table.robot == robot) & (table.detector == name)]
             for ax, y in zip(row, ("miss_rate", "lead_median_s")):
                 ax.plot(mine.false_alarm_rate, mine[y], marker, ms=14, color="black", label=label)
@@ -112,6 +133,7 @@ def detection_section(runs: pd.DataFrame, out: Path, drawn: Drawn | None = None)
     judged = detection_runs(runs)
     if judged.empty:
         return None
+    starts = strategy_starts()
     if drawn is not None and JOB in drawn.payloads:
         figures, table = drawn.paths[JOB], drawn.payloads[JOB]
     else:
@@ -125,9 +147,13 @@ def detection_section(runs: pd.DataFrame, out: Path, drawn: Drawn | None = None)
         "onset (the push's start, 0 for a drop) to firing. Defaults: "
         + ", ".join(f"{d} {v:g}" for d, v in DEFAULTS.items())
         + "; 'earliest': the three together at their defaults, the first to fire declaring the fall, "
-        "as a scenario's default `detection` does; 'strategy start': the capture point at "
-        f"reshape's default start margin ({_reshape_start_margin():g} m) or the tilt, the "
-        "first to fire starting reshape (docs/detection.md).</p>",
+        "as a scenario's default `detection` does"
+        + "".join(
+            f"; '{start_key(name, starts)}': the capture point at {name}'s default start margin "
+            f"({margin:g} m) or the tilt, the first to fire starting {name}"
+            for name, margin in starts.items()
+        )
+        + " (docs/detection.md).</p>",
     ]
     body += [pages.image(p, out) for p in figures if p.suffix == ".png"]
     for robot, mine in table.groupby("robot"):
