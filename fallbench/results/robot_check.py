@@ -4,14 +4,15 @@ The report says what the card and the model give (mass, standing height, actuate
 their limits, the bodies each body group matched) and runs the checks the benchmark relies on,
 each with the reason it fails:
 
-- every actuated joint has a range and a torque limit (the URDF's `limit` lower/upper and effort):
-  the knee margin and the torque metrics read them, the servo is clamped at the torque limit;
+- every actuated joint has a range and a torque limit (the URDF's `limit` lower/upper and effort,
+  an MJCF's joint range and actuatorfrcrange or actuator limits): the knee margin and the torque
+  metrics read them, the servo is clamped at the torque limit;
 - the feet have collision geometry (contacts are sensed on bodies with geometry alone);
 - no two robot bodies touch in the `default` stance (such a pair belongs in `disabled_collisions`);
 - standing in `default` under `stiff` for `STAND_TIME` s, the robot neither falls nor drifts, comes
   to rest upright, at the card's `standing_height`;
-- Pinocchio's mass matrix and nonlinear effects (the QP methods' model) equal MuJoCo's at random
-  states, after the joint map.
+- Pinocchio's mass matrix and nonlinear effects (the QP methods' model, which Pinocchio builds from
+  the same URDF or MJCF) equal MuJoCo's at random states, after the joint map.
 
 The robot tests (tests/test_physics.py, tests/test_model_agreement.py) run these same functions
 on every shipped card.
@@ -194,17 +195,28 @@ def agreement(robot: str, seeds: int = AGREEMENT_SEEDS) -> Agreement:
     return Agreement(float(mass_matrix), float(bias))
 
 
+# Where a model file gives a joint's range and torque limit, for the messages
+LIMIT_SOURCES = {
+    "URDF": ("the URDF's limit lower/upper", "the URDF's limit effort"),
+    "MJCF": (
+        "the MJCF's joint range",
+        "the MJCF's actuatorfrcrange, or an actuator's forcerange or motor ctrlrange",
+    ),
+}
+
+
 def joint_problems(world: World) -> list[str]:
     """Actuated joints without a range or a torque limit, or no actuated joint at all."""
     model = world.model
+    kind = world.robot.model_kind
     if not world.joint_names:
-        return ["no actuated joint (no revolute joint in the URDF)"]
+        return [f"no actuated joint (no revolute or hinge joint in the {kind})"]
     found = []
     for index, name in enumerate(world.joint_names):
         if not model.jnt_limited[model.joint(name).id]:
-            found.append(f"joint {name} has no range (the URDF's limit lower/upper)")
+            found.append(f"joint {name} has no range ({LIMIT_SOURCES[kind][0]})")
         if world.torque_limit[index] <= 0:
-            found.append(f"joint {name} has no torque limit (the URDF's limit effort)")
+            found.append(f"joint {name} has no torque limit ({LIMIT_SOURCES[kind][1]})")
     return found
 
 
@@ -271,7 +283,8 @@ def _motion_lines(robot: str) -> tuple[list[str], list[str]]:
         f"root {standing.start_height:.3f} -> {standing.end_height:.3f} m (sag {standing.sag * 1000:.1f} mm; "
         f"card standing_height {height:.3f} m), drift {standing.drift * 1000:.1f} mm, "
         f"tilt {standing.tilt:.1f} deg, last speeds up to {standing.end_speed:.3f}",
-        f"Pinocchio vs MuJoCo (relative): mass matrix {terms.mass_matrix:.1e}, nonlinear effects {terms.bias:.1e}",
+        f"Pinocchio (from {get_robot(robot).model_path.name}) vs MuJoCo (relative): mass matrix "
+        f"{terms.mass_matrix:.1e}, nonlinear effects {terms.bias:.1e}",
     ]
     return lines, standing.problems(height) + terms.problems()
 
@@ -280,7 +293,7 @@ def mesh_lines(description: RobotDescription) -> list[str]:
     """Which of the robot's meshes were converted for MuJoCo (COLLADA to STL), and from where."""
     converted = list({mesh.source: mesh for mesh in converted_meshes(description)}.values())  # once per file
     if not converted:
-        return ["meshes: none converted (MuJoCo reads the URDF's meshes as they are)"]
+        return [f"meshes: none converted (MuJoCo reads the {description.model_kind}'s meshes as they are)"]
     cached = sum(mesh.cached for mesh in converted)
     lines = [f"meshes: {len(converted)} COLLADA files converted to STL ({cached} from the cache):"]
     return lines + [f"  {mesh.source} -> {mesh.target}" for mesh in converted]
@@ -293,8 +306,8 @@ def check_robot(robot: str) -> RobotReport:
     world = build_world(scenario)
     lines = [
         f"robot {description.name}: card {description.card_path}",
-        f"model: {description.urdf_path} ({description.version})",
-        f"mass: {description.mass:.2f} kg in the URDF, "
+        f"model: {description.model_path} ({description.version})",
+        f"mass: {description.mass:.2f} kg in the {description.model_kind}, "
         f"{world.model.body_subtreemass[world.root_body]:.2f} kg simulated",
         *mesh_lines(description),
         *_joint_lines(world),
@@ -319,7 +332,7 @@ def describe(robot: str) -> list[str]:
     r = get_robot(robot)
     lines = [
         f"robot {r.name}: card {r.card_path}",
-        f"model: {r.urdf_path}" + (f", {r.srdf_path}" if r.srdf_path else "") + f" ({r.version})",
+        f"model: {r.model_path}" + (f", {r.srdf_path}" if r.srdf_path else "") + f" ({r.version})",
         f"fingerprint (card and model files): {r.fingerprint}",
         f"mass {r.mass:.2f} kg, standing height {r.standing_height:.3f} m",
         f"bodies: root {r.root_body}, torso {r.torso_body}, IMU {r.imu_body}"

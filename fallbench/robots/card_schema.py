@@ -1,5 +1,5 @@
 """The robot card's schema: every key, its type and range (pydantic, versioned; unknown keys
-rejected). `fallbench/robots/card.py` reads a card with it and checks it against the URDF; the
+rejected). `fallbench/robots/card.py` reads a card with it and checks it against the model; the
 format, key by key: docs/robots.md."""
 
 from __future__ import annotations
@@ -21,12 +21,13 @@ Axis = tuple[float, float, float]
 class ModelFiles(Strict):
     """Where the robot's model files are."""
 
-    urdf: Name  # path relative to `root`
+    urdf: Name | None = None  # path relative to `root` ...
+    mjcf: Name | None = None  # ... or an MJCF (MuJoCo XML) of the robot: one of the two
     srdf: Name | None = None  # optional: postures (group states), disabled collisions, rotor parameters
     keyframes: Name | None = None  # optional: an MJCF of the robot whose named <key>s are postures
     package: Name | None = None  # installed Python distribution holding the files; default: the card's folder
     root: Name = "."  # folder inside `package` (or the card's folder) that the paths are relative to
-    package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root`
+    package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root` (a URDF's only)
 
 
 class Inertia(Strict):

@@ -43,13 +43,13 @@ class Arm:
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """A robot: its URDF (and SRDF), named postures, default gains and the bodies metrics talk about.
+    """A robot: its URDF or MJCF (and SRDF), named postures, default gains and the bodies metrics talk about.
 
     A part the card leaves out is empty (`arms`, `feet`, `learned_gain_groups`): the methods that
     need it say so before any run (`missing`)."""
 
     name: str
-    urdf_path: Path
+    urdf_path: Path | None  # the robot's URDF; None for a robot given as an MJCF (`mjcf_path`)
     mesh_root: Path  # folder that `package://<package_prefix>` URIs point into
     package_prefix: str
     version: str  # version of the package that ships the description
@@ -91,6 +91,20 @@ class RobotDescription:
     # link -> its inertia tensor (ixx, ixy, ixz, iyy, iyz, izz, kg m^2) in place of the URDF's: a fix
     # both MuJoCo and Pinocchio read, as they both read `urdf_text`
     inertia_overrides: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    mjcf_path: Path | None = None  # the robot's MJCF, when it is given as one (fallbench/robots/mjcf.py)
+    model_mass: float | None = None  # kg, an MJCF's mass as MuJoCo compiles it (None: the URDF's <mass>es)
+
+    @property
+    def model_path(self) -> Path:
+        """The robot's model file: its URDF or its MJCF."""
+        path = self.mjcf_path or self.urdf_path
+        assert path is not None, "a robot has a URDF or an MJCF"
+        return path
+
+    @property
+    def model_kind(self) -> str:
+        """ "URDF" or "MJCF": how messages name the model file."""
+        return "URDF" if self.mjcf_path is None else "MJCF"
 
     def missing(self, fields: tuple[str, ...]) -> str | None:
         """The first of `fields` (names of this class's fields) that the robot leaves empty, else None."""
@@ -103,7 +117,9 @@ class RobotDescription:
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine and the card's inertia
-        overrides applied."""
+        overrides applied; ValueError for a robot given as an MJCF."""
+        if self.urdf_path is None:
+            raise ValueError(f"robot {self.name!r} is given as an MJCF, not a URDF")
         text = self.urdf_path.read_text()
         for link, tensor in self.inertia_overrides.items():
             text = override_inertia(text, link, tensor)
@@ -149,8 +165,10 @@ class RobotDescription:
 
     @cached_property
     def mass(self) -> float:
-        """kg, sum of the URDF's link masses."""
-        return sum(float(m.attrib["value"]) for m in ET.fromstring(self.urdf_path.read_text()).iter("mass"))
+        """kg, sum of the URDF's link masses, or the MJCF's mass."""
+        if self.model_mass is not None:
+            return self.model_mass
+        return sum(float(m.attrib["value"]) for m in ET.fromstring(self.model_path.read_text()).iter("mass"))
 
     @property
     def standing_height(self) -> float:
