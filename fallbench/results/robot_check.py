@@ -10,7 +10,8 @@ each with the reason it fails:
 - the feet have collision geometry (contacts are sensed on bodies with geometry alone);
 - no two robot bodies touch in the `default` stance (such a pair belongs in `disabled_collisions`);
 - standing in `default` under `stiff` for `STAND_TIME` s, the robot neither falls nor drifts, comes
-  to rest upright, at the card's `standing_height`;
+  to rest upright, at the card's `standing_height`, on bodies of its `feet` body group alone (the
+  group `adaptive_qp_hold` tells a landing by);
 - Pinocchio's mass matrix and nonlinear effects (the QP methods' model, which Pinocchio builds from
   the same URDF or MJCF) equal MuJoCo's at random states, after the joint map.
 
@@ -33,7 +34,7 @@ from fallbench.robots.description import RobotDescription
 from fallbench.robots.meshes import converted_meshes
 from fallbench.scenario import Scenario
 from fallbench.sim.events import tilt_deg
-from fallbench.sim.scene import stance_contacts
+from fallbench.sim.scene import FLOOR_NAME, stance_contacts
 from fallbench.sim.world import World, build_world, initial_state
 
 STAND_TIME = 2.0  # s standing under `stiff`
@@ -65,6 +66,7 @@ class Standing:
     end_height: float  # m, root height at the end
     end_speed: float  # rad/s or m/s, the largest velocity coordinate over the last REST_WINDOW s
     tilt: float  # deg of the torso from upright at the end
+    floor_bodies: tuple[str, ...] = ()  # robot bodies touching the floor at the end
 
     @property
     def sag(self) -> float:
@@ -88,6 +90,39 @@ class Standing:
             found.append(f"leans {self.tilt:.1f} deg standing (limit {MAX_TILT:g} deg)")
         return found
 
+    def feet_problems(self, feet: tuple[str, ...]) -> list[str]:
+        """Why the `feet` body group is not what the robot stands on: `adaptive_qp_hold` hands a
+        first impact to its QP only when every body touching is in it (a landing on the feet)."""
+        if not self.floor_bodies:
+            return []  # not standing: problems() says so
+        why = "adaptive_qp_hold hands only a landing on the feet to its QP"
+        if not set(self.floor_bodies) & set(feet):
+            return [
+                f"no body of body_groups.feet touches the floor standing in default (it stands on "
+                f"{', '.join(self.floor_bodies)}): {why}, so it would hand none"
+            ]
+        return [
+            f"{body} touches the floor standing in default but is not in body_groups.feet: {why}, "
+            "so it would take a landing on it for an impact elsewhere"
+            for body in self.floor_bodies
+            if body not in feet
+        ]
+
+
+def floor_bodies(world: World, qpos: np.ndarray) -> tuple[str, ...]:
+    """The robot bodies whose geometry touches the floor at `qpos`, in body order."""
+    model = world.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    floor = model.geom(FLOOR_NAME).id
+    bodies = {
+        int(model.geom_bodyid[c.geom2 if c.geom1 == floor else c.geom1])
+        for c in data.contact[: data.ncon]
+        if floor in (c.geom1, c.geom2)
+    }
+    return tuple(model.body(body).name for body in sorted(bodies))
+
 
 def stand(robot: str) -> Standing:
     """Stand the robot for `STAND_TIME` s in `default` under `stiff` and measure it."""
@@ -105,6 +140,7 @@ def stand(robot: str) -> Standing:
         end_height=float(rec.qpos[-1, 2]),
         end_speed=float(np.abs(rec.qvel[-tail:]).max()),
         tilt=float(tilt_deg(rotation.reshape(3, 3))),
+        floor_bodies=floor_bodies(rec.world, rec.qpos[-1]),
     )
 
 
@@ -277,16 +313,20 @@ def _contact_lines(world: World, scenario: Scenario) -> tuple[list[str], list[st
 def _motion_lines(robot: str) -> tuple[list[str], list[str]]:
     """Standing under `stiff`, and Pinocchio against MuJoCo."""
     standing, terms = stand(robot), agreement(robot)
-    height = get_robot(robot).standing_height
+    description = get_robot(robot)
+    height = description.standing_height
     lines = [
         f"standing in default under stiff for {standing.duration:.2f} s: status {standing.status}, "
         f"root {standing.start_height:.3f} -> {standing.end_height:.3f} m (sag {standing.sag * 1000:.1f} mm; "
         f"card standing_height {height:.3f} m), drift {standing.drift * 1000:.1f} mm, "
         f"tilt {standing.tilt:.1f} deg, last speeds up to {standing.end_speed:.3f}",
-        f"Pinocchio (from {get_robot(robot).model_path.name}) vs MuJoCo (relative): mass matrix "
+        f"standing on: {', '.join(standing.floor_bodies) or 'nothing'} "
+        f"(body_groups.feet: {', '.join(description.body_groups['feet'])})",
+        f"Pinocchio (from {description.model_path.name}) vs MuJoCo (relative): mass matrix "
         f"{terms.mass_matrix:.1e}, nonlinear effects {terms.bias:.1e}",
     ]
-    return lines, standing.problems(height) + terms.problems()
+    feet = standing.feet_problems(description.body_groups["feet"])
+    return lines, standing.problems(height) + feet + terms.problems()
 
 
 def mesh_lines(description: RobotDescription) -> list[str]:
