@@ -35,9 +35,9 @@ from fallbench.robots.meshes import converted_meshes
 from fallbench.scenario import Scenario
 from fallbench.sim.events import tilt_deg
 from fallbench.sim.scene import FLOOR_NAME, stance_contacts
+from fallbench.sim.settle import STAND_TIME, ensure_standing_height, stance_scenario, standing_height_file
 from fallbench.sim.world import World, build_world, initial_state
 
-STAND_TIME = 2.0  # s standing under `stiff`
 MAX_DRIFT = 0.05  # m of base drift in the ground plane while standing
 HEIGHT_TOLERANCE = 0.01  # m between the settled root height and the card's `standing_height`
 REST_WINDOW = 0.1  # s at the end over which every speed must be small
@@ -46,12 +46,6 @@ MAX_TILT = 5.0  # deg of the torso from upright at the end (TALOS settles 3 deg 
 MASS_MATRIX_TOLERANCE = 1e-9  # of the largest entry (or 1): Pinocchio's M against MuJoCo's
 BIAS_TOLERANCE = 1e-8  # of the largest entry (or 1): Pinocchio's nonlinear effects against MuJoCo's
 AGREEMENT_SEEDS = 3  # random states compared
-
-
-def stance_scenario(robot: str) -> Scenario:
-    """The robot standing in `default`, feet on the floor, nothing else, for `STAND_TIME` s (the
-    rest hold as long: the run does not end early at rest)."""
-    return Scenario(name="stand", duration=STAND_TIME, robot=robot, rest={"hold": STAND_TIME})
 
 
 @dataclass(frozen=True)
@@ -315,10 +309,11 @@ def _motion_lines(robot: str) -> tuple[list[str], list[str]]:
     standing, terms = stand(robot), agreement(robot)
     description = get_robot(robot)
     height = description.standing_height
+    source = "card" if description.standing_height_given else "derived"
     lines = [
         f"standing in default under stiff for {standing.duration:.2f} s: status {standing.status}, "
         f"root {standing.start_height:.3f} -> {standing.end_height:.3f} m (sag {standing.sag * 1000:.1f} mm; "
-        f"card standing_height {height:.3f} m), drift {standing.drift * 1000:.1f} mm, "
+        f"{source} standing_height {height:.3f} m), drift {standing.drift * 1000:.1f} mm, "
         f"tilt {standing.tilt:.1f} deg, last speeds up to {standing.end_speed:.3f}",
         f"standing on: {', '.join(standing.floor_bodies) or 'nothing'} "
         f"(body_groups.feet: {', '.join(description.body_groups['feet'])})",
@@ -347,6 +342,7 @@ def check_robot(robot: str) -> RobotReport:
     lines = [
         f"robot {description.name}: card {description.card_path}",
         f"model: {description.model_path} ({description.version})",
+        standing_height_line(robot),
         f"mass: {description.mass:.2f} kg in the {description.model_kind}, "
         f"{world.model.body_subtreemass[world.root_body]:.2f} kg simulated",
         *mesh_lines(description),
@@ -367,6 +363,18 @@ def check_robot(robot: str) -> RobotReport:
     return RobotReport(tuple(lines), tuple(problems))
 
 
+def standing_height_line(robot: str) -> str:
+    """Where the robot's standing height comes from: its card, or derived (now if not cached)."""
+    description = get_robot(robot)
+    if description.standing_height_given:
+        return f"standing height: {description.standing_height:.3f} m, given by the card"
+    height = ensure_standing_height(robot)
+    return (
+        f"standing height: {height:.3f} m, derived (the card gives none): the root's height after "
+        f"{STAND_TIME:g} s standing in default under stiff, cached in {standing_height_file(robot)}"
+    )
+
+
 def describe(robot: str) -> list[str]:
     """What a robot's card gives, with the names its patterns matched (no simulation)."""
     r = get_robot(robot)
@@ -374,7 +382,12 @@ def describe(robot: str) -> list[str]:
         f"robot {r.name}: card {r.card_path}",
         f"model: {r.model_path}" + (f", {r.srdf_path}" if r.srdf_path else "") + f" ({r.version})",
         f"fingerprint (card and model files): {r.fingerprint}",
-        f"mass {r.mass:.2f} kg, standing height {r.standing_height:.3f} m",
+        f"mass {r.mass:.2f} kg, standing height "
+        + (
+            f"{r.standing_height:.3f} m"
+            if r.standing_height_known
+            else "not given (derived when checked or run)"
+        ),
         f"bodies: root {r.root_body}, torso {r.torso_body}, IMU {r.imu_body}"
         + ("" if r.imu_pose is None else f" at {list(r.imu_pose[0])} m, quaternion {list(r.imu_pose[1])}"),
         f"postures: {', '.join(r.postures)}",

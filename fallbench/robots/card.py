@@ -244,6 +244,7 @@ class CardReader:
             armature=self._armature(),
             postures=postures,
             posture_base_height=heights,
+            standing_height_given=card.standing_height is not None,
             disabled_collisions=self._disabled_collisions(),
             disable_stance_contacts="auto" in card.disabled_collisions,
             inertia_overrides=self._inertia_overrides(),
@@ -356,7 +357,7 @@ class CardReader:
     def _postures(self) -> tuple[dict[str, dict[str, float]], dict[str, float]]:
         """Named postures (the SRDF's group states, an MJCF's keyframes, those of `keyframes`, then the
         card's) with `default`, and the root height standing in them (m): the SRDF's or the keyframe's
-        where it gives one, `standing_height` for `default`."""
+        where it gives one, `standing_height` for `default` (left out when the card does not give it)."""
         postures, heights = read_srdf_postures(self.srdf_path) if self.srdf_path else ({}, {})
         # An SRDF is often shared by a full model and a reduced one (fingers, toes, eyes left out):
         # its group states' joints that the URDF lacks are dropped
@@ -386,7 +387,8 @@ class CardReader:
             raise self.error(
                 ("postures",), f"no posture {DEFAULT_POSTURE!r} (the nominal stance) nor `default_posture`"
             )
-        heights[DEFAULT_POSTURE] = self.card.standing_height
+        if self.card.standing_height is not None:  # else derived by settling (fallbench/sim/settle.py)
+            heights[DEFAULT_POSTURE] = self.card.standing_height
         return postures, heights
 
     def _keyframes(

@@ -112,7 +112,8 @@ class RobotCard(Strict):
     torso_body: Name  # whose tilt detects falls; pushed by default
     imu_body: Name | None = None  # the accelerometer sits at its origin, axes aligned with it ...
     imu_site: ImuSite | None = None  # ... or at a frame on a body (one of the two)
-    standing_height: Annotated[float, Field(gt=0, le=10)]  # m, root height standing in `default`
+    # m, root height standing in `default`; left out: derived by settling the robot (sim/settle.py)
+    standing_height: Annotated[float, Field(gt=0, le=10)] | None = None
     default_posture: Name | None = None  # the posture that is `default` (the nominal stance), by name
     postures: dict[Name, dict[Name, Radians]] = {}  # name -> joint -> rad (the SRDF's are added)
     gains: Annotated[dict[Name, Gains], Field(min_length=1)]  # joint regex -> stiff PD gains, first match

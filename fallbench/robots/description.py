@@ -91,6 +91,9 @@ class RobotDescription:
     # link -> its inertia tensor (ixx, ixy, ixz, iyy, iyz, izz, kg m^2) in place of the URDF's: a fix
     # both MuJoCo and Pinocchio read, as they both read `urdf_text`
     inertia_overrides: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    # whether the card gives `standing_height`; if not, the height is derived by settling the robot
+    # (fallbench/sim/settle.py), which puts it into `posture_base_height`
+    standing_height_given: bool = True
     mjcf_path: Path | None = None  # the robot's MJCF, when it is given as one (fallbench/robots/mjcf.py)
     model_mass: float | None = None  # kg, an MJCF's mass as MuJoCo compiles it (None: the URDF's <mass>es)
 
@@ -171,9 +174,29 @@ class RobotDescription:
         return sum(float(m.attrib["value"]) for m in ET.fromstring(self.model_path.read_text()).iter("mass"))
 
     @property
+    def standing_height_known(self) -> bool:
+        """Whether the standing height is here: given by the card, or derived in this process."""
+        return DEFAULT_POSTURE in self.posture_base_height
+
+    @property
     def standing_height(self) -> float:
-        """m, root height standing in `default`: the robot's length scale."""
+        """m, root height standing in `default`: the robot's length scale; StandingHeightUnknown for
+        a card that leaves it out before it is derived (`fallbench.sim.settle.ensure_standing_height`)."""
+        if not self.standing_height_known:
+            raise StandingHeightUnknown(self.unknown_height_reason())
         return self.posture_base_height[DEFAULT_POSTURE]
+
+    def unknown_height_reason(self) -> str:
+        """What an unknown standing height is, for messages."""
+        return (
+            f"robot {self.name!r}: its card gives no standing_height and this process has not derived it "
+            "(fallbench's commands derive it by settling the robot when they load or run it, and cache "
+            f"it; `fallbench robots check {self.card_path}` shows it)"
+        )
+
+
+class StandingHeightUnknown(ValueError):
+    """A card leaves `standing_height` out and nothing has derived it yet in this process."""
 
 
 def resolve_package_uris(text: str, prefix: str, root: Path) -> str:
