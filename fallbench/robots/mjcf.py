@@ -253,7 +253,7 @@ def robot_spec(path: Path, root_body: str) -> mujoco.MjSpec:
 
 def pinocchio_model(path: Path) -> pin.Model:
     """Pinocchio's model of the file with a free-flyer root: the file's free joint where it has one,
-    else a free flyer `root` the robot is appended to (Pinocchio 3-4's MJCF reader with a root
+    else a free flyer `root` the robot is appended to (Pinocchio 4.1's MJCF reader with a root
     joint checks the file's own qpos0 against the model and refuses a file without a free joint)."""
     import pinocchio as pin
 
