@@ -11,13 +11,16 @@ from fallbench.scenario import Scenario
 from fallbench.sim.baseline import gain_scale, with_gain_scale
 from fallbench.sim.episode import run_episode
 from fallbench.sim.recorder import Recording
+from fallbench.sim.settle import ensure_standing_height
 from fallbench.sim.world import World, build_world
 
 
 def run_world(scenario: Scenario) -> World:
     """The world a run simulates: the scenario's, with its default gains times
     `policy_params.stiff.gain_scale`, the baseline stiffness every policy uses before impact
-    (and `stiff` after)."""
+    (and `stiff` after). A standing height the robot's card leaves out is derived first (the
+    metrics read it)."""
+    ensure_standing_height(scenario.robot)
     return with_gain_scale(build_world(scenario), gain_scale(scenario))
 
 

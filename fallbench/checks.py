@@ -17,21 +17,38 @@ from fallbench.registry import policies, strategies
 from fallbench.robots import get_robot
 from fallbench.robots.card import card_key
 from fallbench.scenario import Scenario, ScenarioPoint, load_scenarios
+from fallbench.scenario.sizes import StandingHeightNeeded
 from fallbench.sim.baseline import GAIN_SCALE_KEY, GAIN_SCALE_SECTION, gain_scale
+from fallbench.sim.settle import ensure_standing_height
 from fallbench.sim.world import check_scene
 
 Problem = tuple[str, str] | None
 
 
 def load(paths: list[Path] | list[Path | str], robot: str | None = None) -> list[ScenarioPoint]:
-    """Scenario files parsed, expanded and checked completely (raises `ScenarioError`)."""
-    return load_scenarios(paths, robot, check=check_scenario)
+    """Scenario files parsed, expanded and checked completely (raises `ScenarioError`). A file whose
+    sizes are carried to a robot whose card leaves `standing_height` out is read again once the
+    height is derived (`ensure_standing_height`)."""
+    derived: set[str] = set()
+    paths = list(paths)  # read again after a derivation
+    while True:
+        try:
+            return load_scenarios(paths, robot, check=check_scenario)
+        except StandingHeightNeeded as needed:
+            if needed.robot in derived:
+                raise
+            ensure_standing_height(needed.robot)
+            derived.add(needed.robot)
 
 
 def check_scenario(scenario: Scenario) -> Problem:
     """The first problem of a parsed scenario that needs the robot, the scene or the registered
-    controllers to see."""
-    return check_scene(scenario) or check_controllers(scenario)
+    controllers to see; a standing height the card leaves out is derived here (the metrics read it)."""
+    problem = check_scene(scenario)
+    if problem:
+        return problem
+    ensure_standing_height(scenario.robot)
+    return check_controllers(scenario)
 
 
 def check_controllers(scenario: Scenario) -> Problem:

@@ -52,6 +52,8 @@ def test_robot_stands_still_for_2_s_under_stiff(robot: str) -> None:
     assert standing.duration == pytest.approx(2.0, abs=scenario.physics_dt)
     assert standing.problems(get_robot(robot).standing_height) == []
     assert 0 < standing.sag < 0.01  # m: the stance settles into the servos' deflection
+    assert set(standing.floor_bodies) == set(get_robot(robot).feet.values())  # on its soles
+    assert standing.feet_problems(get_robot(robot).body_groups["feet"]) == []  # it stands on its feet
 
 
 def test_zero_gains_reach_the_knee_stop_and_stiff_does_not(drop_scenario: Scenario) -> None:

@@ -297,8 +297,23 @@ def test_robots_check_passes_the_renamed_robot_and_says_why_others_fail(tmp_path
             1,
             "problem: joint arm_left_2_joint has no torque limit",
         ),
+        (
+            lambda card: card.replace(
+                "feet: [lower_left_6_link, lower_right_6_link,", "feet: [lower_left_6_link,"
+            ),
+            None,
+            1,
+            "problem: lower_right_6_link touches the floor standing in default but is not in body_groups.feet: "
+            "adaptive_qp_hold hands only a landing on the feet to its QP",
+        ),
     ],
-    ids=["imu body missing", "group matching nothing", "no actuated joint", "no torque limit"],
+    ids=[
+        "imu body missing",
+        "group matching nothing",
+        "no actuated joint",
+        "no torque limit",
+        "a sole not a foot",
+    ],
 )
 def test_robots_check_fails_with_the_reason(tmp_path: Path, edit_card, edit_urdf, exit_code, says) -> None:
     card = renamed_talos(tmp_path, edit_card or (lambda text: text), edit_urdf or (lambda text: text))

@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from fallbench.robots.description import RobotDescription
+from fallbench.robots.mjcf import pinocchio_model as mjcf_pinocchio_model
 
 
 class SimulatedRobot(Protocol):
@@ -58,9 +59,19 @@ class PinocchioModel:
         return q, v
 
 
+def pinocchio_model(robot: RobotDescription) -> pin.Model:
+    """Pinocchio's model of the robot's URDF (with the card's fixes, `urdf_text`) or of its MJCF,
+    on a free-flyer root joint."""
+    if robot.mjcf_path is not None:
+        return mjcf_pinocchio_model(robot.mjcf_path)
+    return pin.buildModelFromXML(robot.urdf_text(), pin.JointModelFreeFlyer())
+
+
 def build_pinocchio(world: SimulatedRobot) -> PinocchioModel:
+    """The robot's Pinocchio model, mapped onto the world's MuJoCo model by joint names, with
+    MuJoCo's rotor armature."""
     robot = world.robot
-    model = pin.buildModelFromXML(robot.urdf_text(), pin.JointModelFreeFlyer())
+    model = pinocchio_model(robot)
     mj = world.model
     q_map, v_map = [], []
     for joint_id in range(2, model.njoints):  # 0 = universe, 1 = free flyer

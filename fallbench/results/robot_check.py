@@ -4,14 +4,16 @@ The report says what the card and the model give (mass, standing height, actuate
 their limits, the bodies each body group matched) and runs the checks the benchmark relies on,
 each with the reason it fails:
 
-- every actuated joint has a range and a torque limit (the URDF's `limit` lower/upper and effort):
-  the knee margin and the torque metrics read them, the servo is clamped at the torque limit;
+- every actuated joint has a range and a torque limit (the URDF's `limit` lower/upper and effort,
+  an MJCF's joint range and actuatorfrcrange or actuator limits): the knee margin and the torque
+  metrics read them, the servo is clamped at the torque limit;
 - the feet have collision geometry (contacts are sensed on bodies with geometry alone);
 - no two robot bodies touch in the `default` stance (such a pair belongs in `disabled_collisions`);
 - standing in `default` under `stiff` for `STAND_TIME` s, the robot neither falls nor drifts, comes
-  to rest upright, at the card's `standing_height`;
-- Pinocchio's mass matrix and nonlinear effects (the QP methods' model) equal MuJoCo's at random
-  states, after the joint map.
+  to rest upright, at the card's `standing_height`, on bodies of its `feet` body group alone (the
+  group `adaptive_qp_hold` tells a landing by);
+- Pinocchio's mass matrix and nonlinear effects (the QP methods' model, which Pinocchio builds from
+  the same URDF or MJCF) equal MuJoCo's at random states, after the joint map.
 
 The robot tests (tests/test_physics.py, tests/test_model_agreement.py) run these same functions
 on every shipped card.
@@ -32,10 +34,10 @@ from fallbench.robots.description import RobotDescription
 from fallbench.robots.meshes import converted_meshes
 from fallbench.scenario import Scenario
 from fallbench.sim.events import tilt_deg
-from fallbench.sim.scene import stance_contacts
+from fallbench.sim.scene import FLOOR_NAME, stance_contacts
+from fallbench.sim.settle import STAND_TIME, ensure_standing_height, stance_scenario, standing_height_file
 from fallbench.sim.world import World, build_world, initial_state
 
-STAND_TIME = 2.0  # s standing under `stiff`
 MAX_DRIFT = 0.05  # m of base drift in the ground plane while standing
 HEIGHT_TOLERANCE = 0.01  # m between the settled root height and the card's `standing_height`
 REST_WINDOW = 0.1  # s at the end over which every speed must be small
@@ -44,12 +46,6 @@ MAX_TILT = 5.0  # deg of the torso from upright at the end (TALOS settles 3 deg 
 MASS_MATRIX_TOLERANCE = 1e-9  # of the largest entry (or 1): Pinocchio's M against MuJoCo's
 BIAS_TOLERANCE = 1e-8  # of the largest entry (or 1): Pinocchio's nonlinear effects against MuJoCo's
 AGREEMENT_SEEDS = 3  # random states compared
-
-
-def stance_scenario(robot: str) -> Scenario:
-    """The robot standing in `default`, feet on the floor, nothing else, for `STAND_TIME` s (the
-    rest hold as long: the run does not end early at rest)."""
-    return Scenario(name="stand", duration=STAND_TIME, robot=robot, rest={"hold": STAND_TIME})
 
 
 @dataclass(frozen=True)
@@ -64,6 +60,7 @@ class Standing:
     end_height: float  # m, root height at the end
     end_speed: float  # rad/s or m/s, the largest velocity coordinate over the last REST_WINDOW s
     tilt: float  # deg of the torso from upright at the end
+    floor_bodies: tuple[str, ...] = ()  # robot bodies touching the floor at the end
 
     @property
     def sag(self) -> float:
@@ -87,6 +84,39 @@ class Standing:
             found.append(f"leans {self.tilt:.1f} deg standing (limit {MAX_TILT:g} deg)")
         return found
 
+    def feet_problems(self, feet: tuple[str, ...]) -> list[str]:
+        """Why the `feet` body group is not what the robot stands on: `adaptive_qp_hold` hands a
+        first impact to its QP only when every body touching is in it (a landing on the feet)."""
+        if not self.floor_bodies:
+            return []  # not standing: problems() says so
+        why = "adaptive_qp_hold hands only a landing on the feet to its QP"
+        if not set(self.floor_bodies) & set(feet):
+            return [
+                f"no body of body_groups.feet touches the floor standing in default (it stands on "
+                f"{', '.join(self.floor_bodies)}): {why}, so it would hand none"
+            ]
+        return [
+            f"{body} touches the floor standing in default but is not in body_groups.feet: {why}, "
+            "so it would take a landing on it for an impact elsewhere"
+            for body in self.floor_bodies
+            if body not in feet
+        ]
+
+
+def floor_bodies(world: World, qpos: np.ndarray) -> tuple[str, ...]:
+    """The robot bodies whose geometry touches the floor at `qpos`, in body order."""
+    model = world.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    floor = model.geom(FLOOR_NAME).id
+    bodies = {
+        int(model.geom_bodyid[c.geom2 if c.geom1 == floor else c.geom1])
+        for c in data.contact[: data.ncon]
+        if floor in (c.geom1, c.geom2)
+    }
+    return tuple(model.body(body).name for body in sorted(bodies))
+
 
 def stand(robot: str) -> Standing:
     """Stand the robot for `STAND_TIME` s in `default` under `stiff` and measure it."""
@@ -104,6 +134,7 @@ def stand(robot: str) -> Standing:
         end_height=float(rec.qpos[-1, 2]),
         end_speed=float(np.abs(rec.qvel[-tail:]).max()),
         tilt=float(tilt_deg(rotation.reshape(3, 3))),
+        floor_bodies=floor_bodies(rec.world, rec.qpos[-1]),
     )
 
 
@@ -194,17 +225,28 @@ def agreement(robot: str, seeds: int = AGREEMENT_SEEDS) -> Agreement:
     return Agreement(float(mass_matrix), float(bias))
 
 
+# Where a model file gives a joint's range and torque limit, for the messages
+LIMIT_SOURCES = {
+    "URDF": ("the URDF's limit lower/upper", "the URDF's limit effort"),
+    "MJCF": (
+        "the MJCF's joint range",
+        "the MJCF's actuatorfrcrange, or an actuator's forcerange or motor ctrlrange",
+    ),
+}
+
+
 def joint_problems(world: World) -> list[str]:
     """Actuated joints without a range or a torque limit, or no actuated joint at all."""
     model = world.model
+    kind = world.robot.model_kind
     if not world.joint_names:
-        return ["no actuated joint (no revolute joint in the URDF)"]
+        return [f"no actuated joint (no revolute or hinge joint in the {kind})"]
     found = []
     for index, name in enumerate(world.joint_names):
         if not model.jnt_limited[model.joint(name).id]:
-            found.append(f"joint {name} has no range (the URDF's limit lower/upper)")
+            found.append(f"joint {name} has no range ({LIMIT_SOURCES[kind][0]})")
         if world.torque_limit[index] <= 0:
-            found.append(f"joint {name} has no torque limit (the URDF's limit effort)")
+            found.append(f"joint {name} has no torque limit ({LIMIT_SOURCES[kind][1]})")
     return found
 
 
@@ -265,22 +307,28 @@ def _contact_lines(world: World, scenario: Scenario) -> tuple[list[str], list[st
 def _motion_lines(robot: str) -> tuple[list[str], list[str]]:
     """Standing under `stiff`, and Pinocchio against MuJoCo."""
     standing, terms = stand(robot), agreement(robot)
-    height = get_robot(robot).standing_height
+    description = get_robot(robot)
+    height = description.standing_height
+    source = "card" if description.standing_height_given else "derived"
     lines = [
         f"standing in default under stiff for {standing.duration:.2f} s: status {standing.status}, "
         f"root {standing.start_height:.3f} -> {standing.end_height:.3f} m (sag {standing.sag * 1000:.1f} mm; "
-        f"card standing_height {height:.3f} m), drift {standing.drift * 1000:.1f} mm, "
+        f"{source} standing_height {height:.3f} m), drift {standing.drift * 1000:.1f} mm, "
         f"tilt {standing.tilt:.1f} deg, last speeds up to {standing.end_speed:.3f}",
-        f"Pinocchio vs MuJoCo (relative): mass matrix {terms.mass_matrix:.1e}, nonlinear effects {terms.bias:.1e}",
+        f"standing on: {', '.join(standing.floor_bodies) or 'nothing'} "
+        f"(body_groups.feet: {', '.join(description.body_groups['feet'])})",
+        f"Pinocchio (from {description.model_path.name}) vs MuJoCo (relative): mass matrix "
+        f"{terms.mass_matrix:.1e}, nonlinear effects {terms.bias:.1e}",
     ]
-    return lines, standing.problems(height) + terms.problems()
+    feet = standing.feet_problems(description.body_groups["feet"])
+    return lines, standing.problems(height) + feet + terms.problems()
 
 
 def mesh_lines(description: RobotDescription) -> list[str]:
     """Which of the robot's meshes were converted for MuJoCo (COLLADA to STL), and from where."""
     converted = list({mesh.source: mesh for mesh in converted_meshes(description)}.values())  # once per file
     if not converted:
-        return ["meshes: none converted (MuJoCo reads the URDF's meshes as they are)"]
+        return [f"meshes: none converted (MuJoCo reads the {description.model_kind}'s meshes as they are)"]
     cached = sum(mesh.cached for mesh in converted)
     lines = [f"meshes: {len(converted)} COLLADA files converted to STL ({cached} from the cache):"]
     return lines + [f"  {mesh.source} -> {mesh.target}" for mesh in converted]
@@ -293,8 +341,9 @@ def check_robot(robot: str) -> RobotReport:
     world = build_world(scenario)
     lines = [
         f"robot {description.name}: card {description.card_path}",
-        f"model: {description.urdf_path} ({description.version})",
-        f"mass: {description.mass:.2f} kg in the URDF, "
+        f"model: {description.model_path} ({description.version})",
+        standing_height_line(robot),
+        f"mass: {description.mass:.2f} kg in the {description.model_kind}, "
         f"{world.model.body_subtreemass[world.root_body]:.2f} kg simulated",
         *mesh_lines(description),
         *_joint_lines(world),
@@ -314,14 +363,31 @@ def check_robot(robot: str) -> RobotReport:
     return RobotReport(tuple(lines), tuple(problems))
 
 
+def standing_height_line(robot: str) -> str:
+    """Where the robot's standing height comes from: its card, or derived (now if not cached)."""
+    description = get_robot(robot)
+    if description.standing_height_given:
+        return f"standing height: {description.standing_height:.3f} m, given by the card"
+    height = ensure_standing_height(robot)
+    return (
+        f"standing height: {height:.3f} m, derived (the card gives none): the root's height after "
+        f"{STAND_TIME:g} s standing in default under stiff, cached in {standing_height_file(robot)}"
+    )
+
+
 def describe(robot: str) -> list[str]:
     """What a robot's card gives, with the names its patterns matched (no simulation)."""
     r = get_robot(robot)
     lines = [
         f"robot {r.name}: card {r.card_path}",
-        f"model: {r.urdf_path}" + (f", {r.srdf_path}" if r.srdf_path else "") + f" ({r.version})",
+        f"model: {r.model_path}" + (f", {r.srdf_path}" if r.srdf_path else "") + f" ({r.version})",
         f"fingerprint (card and model files): {r.fingerprint}",
-        f"mass {r.mass:.2f} kg, standing height {r.standing_height:.3f} m",
+        f"mass {r.mass:.2f} kg, standing height "
+        + (
+            f"{r.standing_height:.3f} m"
+            if r.standing_height_known
+            else "not given (derived when checked or run)"
+        ),
         f"bodies: root {r.root_body}, torso {r.torso_body}, IMU {r.imu_body}"
         + ("" if r.imu_pose is None else f" at {list(r.imu_pose[0])} m, quaternion {list(r.imu_pose[1])}"),
         f"postures: {', '.join(r.postures)}",

@@ -1,5 +1,5 @@
 """The robot card's schema: every key, its type and range (pydantic, versioned; unknown keys
-rejected). `fallbench/robots/card.py` reads a card with it and checks it against the URDF; the
+rejected). `fallbench/robots/card.py` reads a card with it and checks it against the model; the
 format, key by key: docs/robots.md."""
 
 from __future__ import annotations
@@ -21,12 +21,13 @@ Axis = tuple[float, float, float]
 class ModelFiles(Strict):
     """Where the robot's model files are."""
 
-    urdf: Name  # path relative to `root`
+    urdf: Name | None = None  # path relative to `root` ...
+    mjcf: Name | None = None  # ... or an MJCF (MuJoCo XML) of the robot: one of the two
     srdf: Name | None = None  # optional: postures (group states), disabled collisions, rotor parameters
     keyframes: Name | None = None  # optional: an MJCF of the robot whose named <key>s are postures
     package: Name | None = None  # installed Python distribution holding the files; default: the card's folder
     root: Name = "."  # folder inside `package` (or the card's folder) that the paths are relative to
-    package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root`
+    package_uri: str = ""  # `package://<package_uri>` in the URDF points into `root` (a URDF's only)
 
 
 class Inertia(Strict):
@@ -111,7 +112,8 @@ class RobotCard(Strict):
     torso_body: Name  # whose tilt detects falls; pushed by default
     imu_body: Name | None = None  # the accelerometer sits at its origin, axes aligned with it ...
     imu_site: ImuSite | None = None  # ... or at a frame on a body (one of the two)
-    standing_height: Annotated[float, Field(gt=0, le=10)]  # m, root height standing in `default`
+    # m, root height standing in `default`; left out: derived by settling the robot (sim/settle.py)
+    standing_height: Annotated[float, Field(gt=0, le=10)] | None = None
     default_posture: Name | None = None  # the posture that is `default` (the nominal stance), by name
     postures: dict[Name, dict[Name, Radians]] = {}  # name -> joint -> rad (the SRDF's are added)
     gains: Annotated[dict[Name, Gains], Field(min_length=1)]  # joint regex -> stiff PD gains, first match

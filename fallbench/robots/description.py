@@ -43,13 +43,13 @@ class Arm:
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """A robot: its URDF (and SRDF), named postures, default gains and the bodies metrics talk about.
+    """A robot: its URDF or MJCF (and SRDF), named postures, default gains and the bodies metrics talk about.
 
     A part the card leaves out is empty (`arms`, `feet`, `learned_gain_groups`): the methods that
     need it say so before any run (`missing`)."""
 
     name: str
-    urdf_path: Path
+    urdf_path: Path | None  # the robot's URDF; None for a robot given as an MJCF (`mjcf_path`)
     mesh_root: Path  # folder that `package://<package_prefix>` URIs point into
     package_prefix: str
     version: str  # version of the package that ships the description
@@ -91,6 +91,23 @@ class RobotDescription:
     # link -> its inertia tensor (ixx, ixy, ixz, iyy, iyz, izz, kg m^2) in place of the URDF's: a fix
     # both MuJoCo and Pinocchio read, as they both read `urdf_text`
     inertia_overrides: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    # whether the card gives `standing_height`; if not, the height is derived by settling the robot
+    # (fallbench/sim/settle.py), which puts it into `posture_base_height`
+    standing_height_given: bool = True
+    mjcf_path: Path | None = None  # the robot's MJCF, when it is given as one (fallbench/robots/mjcf.py)
+    model_mass: float | None = None  # kg, an MJCF's mass as MuJoCo compiles it (None: the URDF's <mass>es)
+
+    @property
+    def model_path(self) -> Path:
+        """The robot's model file: its URDF or its MJCF."""
+        path = self.mjcf_path or self.urdf_path
+        assert path is not None, "a robot has a URDF or an MJCF"
+        return path
+
+    @property
+    def model_kind(self) -> str:
+        """ "URDF" or "MJCF": how messages name the model file."""
+        return "URDF" if self.mjcf_path is None else "MJCF"
 
     def missing(self, fields: tuple[str, ...]) -> str | None:
         """The first of `fields` (names of this class's fields) that the robot leaves empty, else None."""
@@ -103,7 +120,9 @@ class RobotDescription:
 
     def urdf_text(self) -> str:
         """The URDF with package URIs resolved to files on this machine and the card's inertia
-        overrides applied."""
+        overrides applied; ValueError for a robot given as an MJCF."""
+        if self.urdf_path is None:
+            raise ValueError(f"robot {self.name!r} is given as an MJCF, not a URDF")
         text = self.urdf_path.read_text()
         for link, tensor in self.inertia_overrides.items():
             text = override_inertia(text, link, tensor)
@@ -149,13 +168,35 @@ class RobotDescription:
 
     @cached_property
     def mass(self) -> float:
-        """kg, sum of the URDF's link masses."""
-        return sum(float(m.attrib["value"]) for m in ET.fromstring(self.urdf_path.read_text()).iter("mass"))
+        """kg, sum of the URDF's link masses, or the MJCF's mass."""
+        if self.model_mass is not None:
+            return self.model_mass
+        return sum(float(m.attrib["value"]) for m in ET.fromstring(self.model_path.read_text()).iter("mass"))
+
+    @property
+    def standing_height_known(self) -> bool:
+        """Whether the standing height is here: given by the card, or derived in this process."""
+        return DEFAULT_POSTURE in self.posture_base_height
 
     @property
     def standing_height(self) -> float:
-        """m, root height standing in `default`: the robot's length scale."""
+        """m, root height standing in `default`: the robot's length scale; StandingHeightUnknown for
+        a card that leaves it out before it is derived (`fallbench.sim.settle.ensure_standing_height`)."""
+        if not self.standing_height_known:
+            raise StandingHeightUnknown(self.unknown_height_reason())
         return self.posture_base_height[DEFAULT_POSTURE]
+
+    def unknown_height_reason(self) -> str:
+        """What an unknown standing height is, for messages."""
+        return (
+            f"robot {self.name!r}: its card gives no standing_height and this process has not derived it "
+            "(fallbench's commands derive it by settling the robot when they load or run it, and cache "
+            f"it; `fallbench robots check {self.card_path}` shows it)"
+        )
+
+
+class StandingHeightUnknown(ValueError):
+    """A card leaves `standing_height` out and nothing has derived it yet in this process."""
 
 
 def resolve_package_uris(text: str, prefix: str, root: Path) -> str:

@@ -165,10 +165,12 @@ def convert_urdf_meshes(
 
 def converted_meshes(robot: RobotDescription) -> tuple[ConvertedMesh, ...]:
     """The robot's COLLADA meshes and their STLs (converting those not cached yet); empty for a
-    robot whose meshes MuJoCo reads as they are."""
+    robot whose meshes MuJoCo reads as they are, and for an MJCF (which MuJoCo reads as it is)."""
+    if robot.urdf_path is None:
+        return ()
     return convert_urdf_meshes(robot.urdf_text(), robot.urdf_path.parent)[1]
 
 
 def mujoco_urdf_text(robot: RobotDescription) -> str:
     """The robot's URDF as MuJoCo reads it: package URIs resolved, COLLADA meshes as STL."""
-    return convert_urdf_meshes(robot.urdf_text(), robot.urdf_path.parent)[0]
+    return convert_urdf_meshes(robot.urdf_text(), robot.model_path.parent)[0]

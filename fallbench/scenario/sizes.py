@@ -3,11 +3,28 @@ robot (`sizes_for`), carried to the robot a point runs on."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from fallbench.robots import get_robot
+from fallbench.yamlfile import InputError
 
 SCALE_PREFIX = "scale:"  # swept entries recording the factors applied to a file's sizes
+
+
+class StandingHeightNeeded(InputError):
+    """A file's sizes are carried between robots, one of whose cards leaves `standing_height` out
+    and which nothing has derived yet: `fallbench.checks.load` derives it (it settles the robot, a
+    simulation this layer cannot run) and reads the files again."""
+
+    def __init__(self, path: Path, line: int | None, robot: str) -> None:
+        super().__init__(path, line, "sizes_for", get_robot(robot).unknown_height_reason())
+        self.robot = robot  # as runs carry it: a shipped name or a card's path
+
+
+def unknown_heights(*robots: str) -> list[str]:
+    """The robots of `robots` whose standing height is neither given nor derived yet."""
+    return [robot for robot in robots if not get_robot(robot).standing_height_known]
 
 
 def robot_scales(robot: str, sizes_for: str) -> dict[str, float]:

@@ -17,7 +17,13 @@ from ruamel.yaml.comments import CommentedMap
 
 from fallbench.robots import DEFAULT_ROBOT, resolve_robot, robot_problem
 from fallbench.scenario.schema import UNION_TAGS, Scenario, ScenarioError, ScenarioFile
-from fallbench.scenario.sizes import SCALE_PREFIX, robot_scales, scale_sizes
+from fallbench.scenario.sizes import (
+    SCALE_PREFIX,
+    StandingHeightNeeded,
+    robot_scales,
+    scale_sizes,
+    unknown_heights,
+)
 from fallbench.yamlfile import error_location, line_of, plain, validation_error
 
 
@@ -137,6 +143,9 @@ def _robot_sizes(path: Path, doc: CommentedMap, spec: ScenarioFile, data: dict[s
     applied: dict[str, float] = {}
     sizes_for = resolve_robot(spec.sizes_for, path.parent) if spec.sizes_for is not None else None
     if sizes_for is not None and robot != sizes_for:
+        unknown = unknown_heights(robot, sizes_for)
+        if unknown:  # a card without `standing_height`, not derived yet
+            raise StandingHeightNeeded(path, line_of(doc, ("sizes_for",)), unknown[0])
         scales = robot_scales(robot, sizes_for)
         scale_sizes(data, scales)
         applied = {f"{SCALE_PREFIX}{name}": factor for name, factor in scales.items()}

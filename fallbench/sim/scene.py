@@ -24,6 +24,7 @@ import mujoco
 from fallbench.robots import get_robot
 from fallbench.robots.description import DEFAULT_POSTURE, RobotDescription
 from fallbench.robots.meshes import mujoco_urdf_text
+from fallbench.robots.mjcf import robot_spec
 from fallbench.scenario import Box, Contact, Cylinder, Scenario
 
 IMPEDANCE_SHAPE = (0.5, 2.0)  # solimp midpoint and power: MuJoCo's defaults
@@ -33,8 +34,12 @@ OBSTACLE_PREFIX = "obstacle_"  # geom of obstacle i: obstacle_<i>
 
 
 def _robot_spec(robot: RobotDescription) -> mujoco.MjSpec:
+    """The robot alone, from its URDF (what MuJoCo's URDF reader makes of it) or its MJCF
+    (fallbench/robots/mjcf.py says what is kept and what the scene replaces)."""
     import xml.etree.ElementTree as ET
 
+    if robot.mjcf_path is not None:
+        return robot_spec(robot.mjcf_path, robot.root_body)
     tree = ET.fromstring(mujoco_urdf_text(robot))  # COLLADA meshes as STL
     for tag in ("gazebo", "transmission"):
         for element in tree.findall(tag):

@@ -110,7 +110,11 @@ def _set_runtime(model: mujoco.MjModel, scenario: Scenario) -> None:
     model.opt.timestep = scenario.physics_dt
 
 
-def _model_cache_file(scenario: Scenario) -> Path:
+def scene_digest(scenario: Scenario) -> str:
+    """What the compiled scene of `scenario` is made of, hashed: its scene key, MuJoCo's and the
+    robot description's versions, the robot's card and model files (its fingerprint) and the
+    source that builds the model. The compiled worlds' cache key, and that of what is derived from
+    them (a standing height the card leaves out, sim/settle.py)."""
     robot = get_robot(scenario.robot)
     digest = hashlib.sha256(
         scene_key(scenario).encode()
@@ -119,7 +123,12 @@ def _model_cache_file(scenario: Scenario) -> Path:
         + robot.fingerprint.encode()
         + _builder_source()
     )
-    return cache_root() / f"world-{robot.name}-{digest.hexdigest()[:16]}.mjb"
+    return digest.hexdigest()[:16]
+
+
+def _model_cache_file(scenario: Scenario) -> Path:
+    robot = get_robot(scenario.robot)
+    return cache_root() / f"world-{robot.name}-{scene_digest(scenario)}.mjb"
 
 
 def _save_to_cache(model: mujoco.MjModel, path: Path) -> None:

@@ -75,7 +75,7 @@ def _hull_vertices(points: np.ndarray) -> np.ndarray:
 
 def _cache_file(robot: RobotDescription) -> Path:
     key = hashlib.sha256(
-        robot.urdf_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}:{robot.torso_axes}".encode()
+        robot.model_path.read_bytes() + f"{SAMPLES}:{SEED}:{robot.arms}:{robot.torso_axes}".encode()
     ).hexdigest()[:16]
     return cache_root() / f"reach-{robot.name}-{key}.npz"
 
