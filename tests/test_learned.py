@@ -223,6 +223,41 @@ def test_environment_ends_the_episode_at_rest(tmp_path: Path) -> None:
     assert env.episode.rest.settled
 
 
+def _episode(env: FallEnv, seed: int) -> tuple[list[float], list[float], bool]:
+    """Rewards and fall terms of one episode of the zero action, and whether it was truncated."""
+    env.reset(seed=seed)
+    rewards, fell, terminated, truncated = [], [], False, False
+    while not (terminated or truncated):
+        _, reward, terminated, truncated, info = env.step(np.zeros(29))
+        rewards.append(reward)
+        fell.append(info["damage"]["fell"])
+    return rewards, fell, truncated
+
+
+@pytest.mark.parametrize("fallen", [True, False])
+def test_fall_term_is_paid_once_on_a_fallen_last_step(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fallen: bool
+) -> None:
+    """`DamageWeights.fell` is paid once, on the episode's last step, if the robot ends it below
+    fallbench's fallen height; with weight 0 the reward is the damage alone, step for step. The
+    zero action (the default posture under G1's compliant learned gains: the ankles' 2 x 40 Nm/rad
+    is under m g l, ~207 Nm/rad) does not keep G1 up even after a 0.3 m drop, so the survived end
+    is the same fall judged against a fallen height below the floor."""
+    if not fallen:
+        monkeypatch.setattr("fallbench.environment.fall.fell_height", lambda *_: 0.0)
+    path = tmp_path / "fell.yaml"
+    path.write_text("name: env_fell\nrobot: g1\nduration: 0.5\ninitial: {posture: default, height: 0.3}\n")
+    plain = FallEnv(path, physics_dt=0.001, cap=6.0)
+    weighted = FallEnv(path, reward_weights={"fell": 5.0}, physics_dt=0.001, cap=6.0)
+    base, base_fell, truncated = _episode(plain, 0)
+    rewards, fell, _ = _episode(weighted, 0)
+    assert not truncated and plain.episode.rest.settled  # the 6 s cap replaced the file's 0.5 s
+    assert fell[:-1] == [0.0] * (len(fell) - 1) and fell[-1] == float(fallen) and base_fell == fell
+    assert rewards[:-1] == base[:-1] and rewards[-1] == pytest.approx(base[-1] - 5.0 * fallen, abs=1e-12)
+    last = plain.episode.trace.qpos[plain.episode.step - 1, 2]
+    assert last < 0.6 * 0.755  # lying: under metrics.FELL_HEIGHT_FRACTION x G1's standing height
+
+
 def test_vectorised_environment(falls: Path) -> None:
     envs = gymnasium.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", scenario=str(falls))
     obs, _ = envs.reset(seed=[1, 2])

@@ -28,6 +28,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import asdict
 from importlib.metadata import version
 from pathlib import Path
 
@@ -42,7 +43,7 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 import fallbench.environment  # noqa: F401  (registers fallbench/Fall-v0)
-from fallbench.environment.fall import FallEnv
+from fallbench.environment.fall import DamageWeights, FallEnv
 
 HERE = Path(__file__).resolve().parent
 OPSET = 17
@@ -75,9 +76,17 @@ class Checkpoints(BaseCallback):
         return True
 
 
-def make_env(scenario: Path, robot: str, physics_dt: float, rank: int, seed: int):
+def make_env(
+    scenario: Path,
+    robot: str,
+    physics_dt: float,
+    cap: float | None,
+    weights: DamageWeights,
+    rank: int,
+    seed: int,
+):
     def build() -> Monitor:
-        env = Monitor(FallEnv(scenario, robot, physics_dt=physics_dt))
+        env = Monitor(FallEnv(scenario, robot, reward_weights=weights, physics_dt=physics_dt, cap=cap))
         env.reset(seed=seed + rank)
         return env
 
@@ -160,12 +169,23 @@ def main() -> None:
     parser.add_argument(
         "--n-steps", type=int, default=2048, help="env steps per environment per PPO iteration"
     )
+    parser.add_argument(
+        "--cap", type=float, default=None, help="replace every fall's cap (duration, s), e.g. 10: run to rest"
+    )
+    parser.add_argument(
+        "--fell-weight",
+        type=float,
+        default=0.0,
+        help="penalty for ending an episode fallen (DamageWeights.fell)",
+    )
     args = parser.parse_args()
 
     torch.set_num_threads(1)  # the environments use the other cores
     args.out.mkdir(parents=True, exist_ok=True)
+    weights = DamageWeights(fell=args.fell_weight)
     builders = [
-        make_env(args.scenario, args.robot, args.physics_dt, rank, args.seed) for rank in range(args.envs)
+        make_env(args.scenario, args.robot, args.physics_dt, args.cap, weights, rank, args.seed)
+        for rank in range(args.envs)
     ]
     vector = SubprocVecEnv(builders) if args.envs > 1 else DummyVecEnv(builders)
     vector.seed(args.seed)
@@ -203,6 +223,8 @@ def main() -> None:
         "seed": args.seed,
         "envs": args.envs,
         "physics_dt": args.physics_dt,
+        "cap": args.cap,
+        "reward_weights": asdict(weights),
         "timesteps": int(model.num_timesteps),
         "wall_s": wall,
         "export_max_abs_difference": difference,

@@ -18,11 +18,13 @@ from fallbench.analysis.detection import detection_metrics
 from fallbench.analysis.obstacles import com_path, fall_origin, obstacle_metrics
 from fallbench.analysis.sensors import FORCE_WINDOW, ImuModel, window_mean_peak
 from fallbench.dynamics.fall_direction import fall_class, horizontal_unit
+from fallbench.scenario import Scenario
 from fallbench.sim.events import METHODS
 from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, knees_simultaneous, touches
 from fallbench.sim.recorder import Recording
 from fallbench.sim.rest import rest_posture
 from fallbench.sim.servo import pd_demand
+from fallbench.sim.world import World
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
 IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated
@@ -349,16 +351,23 @@ def _forces(rec: Recording, forces: dict[str, np.ndarray], impact: float | None)
     return row
 
 
+def fell_height(world: World, scenario: Scenario, start_height: float) -> float:
+    """Root height (m) below which a run ends fallen: FELL_HEIGHT_FRACTION x the root's standing
+    height in the scenario's posture (the run's first root height for a posture without one)."""
+    standing = world.robot.posture_base_height.get(scenario.initial.posture, start_height)
+    return FELL_HEIGHT_FRACTION * standing
+
+
 def _outcome(rec: Recording) -> dict[str, object]:
     """Whether the run came to rest and when, its final height and posture, whether the robot fell
     (read at rest), and what it did to the obstacles."""
     world = rec.world
     base_height = rec.qpos[:, 2]
-    standing = world.robot.posture_base_height.get(rec.scenario.initial.posture, float(base_height[0]))
+    fallen_below = fell_height(world, rec.scenario, float(base_height[0]))
     obstacle_force = [
         np.linalg.norm(world.sensor(rec.sensordata, n)[:, 1:4], axis=1) for n in world.obstacle_sensors
     ]
-    fell = bool(base_height[-1] < FELL_HEIGHT_FRACTION * standing)
+    fell = bool(base_height[-1] < fallen_below)
     return {
         "settled": rec.time_to_rest is not None,
         "time_to_rest": float("nan") if rec.time_to_rest is None else rec.time_to_rest,

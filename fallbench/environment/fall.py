@@ -10,9 +10,13 @@ the environment calls its `sense` and `act` halves itself and acts where the str
   as the `onnx` strategy's, with its settings (`policy_params.onnx`: `control_dt`, `action_scale`).
 - step(action): holds the action's joint targets for one `control_dt` of the policy (50 Hz by
   default) and returns the reward of the physics samples simulated meanwhile.
-- reward: minus a weighted sum of fallbench's damage measures over the step (`DamageWeights`).
+- reward: minus a weighted sum of fallbench's damage measures over the step (`DamageWeights`),
+  and on the episode's last step a penalty if the robot ends it fallen (`DamageWeights.fell`,
+  fallbench's own `fell` rule; 0 by default).
 - `physics_dt` (s, optional) replaces every fall's physics step (a coarser step trains faster; the
-  benchmark judges at the scenario's own step).
+  benchmark judges at the scenario's own step); `cap` (s, optional) replaces every fall's cap
+  (`duration`), e.g. the benchmark's 10 s default so that training falls go on until the robot is
+  at rest, as the benchmark's runs do.
 - terminated when the robot has come to rest or the run diverged (the same rule as `fallbench run`,
   fallbench/sim/rest.py); truncated at the scenario's cap (`duration`) if it has not.
 """
@@ -28,7 +32,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from fallbench.analysis.metrics import LIMIT_HIT_TOLERANCE
+from fallbench.analysis.metrics import LIMIT_HIT_TOLERANCE, fell_height
 from fallbench.assembly import run_world
 from fallbench.checks import load
 from fallbench.postimpact.stiff import StiffPolicy
@@ -52,13 +56,18 @@ class DamageWeights:
       `imu_peak_*`);
     - limit: joints past a limit stop (count; fallbench's `joint_limit_hits`);
     - torque: mean over samples and joints of (applied torque / limit)^2 (fallbench's
-      `torque_ratio_max`, smoothed into an effort)."""
+      `torque_ratio_max`, smoothed into an effort);
+    - fell: 1 on the episode's last step (at rest, at the cap or diverged) if the robot ends it
+      fallen by fallbench's `fell` rule (root below FELL_HEIGHT_FRACTION x its standing height in
+      the scenario's posture; a diverged run counts as fallen), else 0: paid once per episode.
+      0 by default, so the reward is the damage alone."""
 
     head: float = 1.0
     torso: float = 0.2
     imu: float = 0.05
     limit: float = 0.02
     torque: float = 0.1
+    fell: float = 0.0
 
 
 class EnvironmentStrategy(LearnedStrategy):
@@ -144,6 +153,7 @@ class FallEnv(gymnasium.Env):
         robot: str | None = None,
         reward_weights: dict[str, float] | DamageWeights | None = None,
         physics_dt: float | None = None,
+        cap: float | None = None,
     ) -> None:
         self.path, self.robot = Path(scenario), robot
         points = load([self.path], robot)  # checks the whole file: ScenarioError on bad input
@@ -154,7 +164,11 @@ class FallEnv(gymnasium.Env):
         if physics_dt is not None:  # every fall's physics step (s), e.g. a coarser one for training
             for document in self.documents:
                 document["physics_dt"] = physics_dt
-            points = points_with_seed(self.path, self.documents, 0, robot)  # checks the new step
+        if cap is not None:  # every fall's cap (s), e.g. long enough for the robot to come to rest
+            for document in self.documents:
+                document["duration"] = cap
+        if physics_dt is not None or cap is not None:
+            points = points_with_seed(self.path, self.documents, 0, robot)  # checks the new settings
         self.weights = (
             reward_weights
             if isinstance(reward_weights, DamageWeights)
@@ -228,7 +242,19 @@ class FallEnv(gymnasium.Env):
         self.pending = None
         decided = self._to_decision()
         terms = self.terms.of(self.episode, start, self.episode.step)
+        terms["fell"] = float(not decided and self._fallen())  # paid once, on the episode's last step
         reward = -sum(getattr(self.weights, key) * value for key, value in terms.items())
         capped = self.episode.capped  # the cap is a time limit (truncation), rest and divergence end the fall
         terminated = not decided and not capped
         return self._observation(), float(reward), terminated, capped, self._info() | {"damage": terms}
+
+    def _fallen(self) -> bool:
+        """Whether the robot ends the episode fallen, by fallbench's `fell` rule (metrics'
+        `fell_height`, read on the last physics sample); a diverged run counts as fallen."""
+        episode = self.episode
+        assert episode is not None
+        if episode.status != "ok":
+            return True
+        qpos = episode.trace.qpos
+        height = float(qpos[episode.step - 1, 2])
+        return not height >= fell_height(episode.world, episode.scenario, float(qpos[0, 2]))
