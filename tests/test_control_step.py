@@ -1,7 +1,7 @@
 """The control step's shortcuts give their reference computations' bits: the feet's corners moved
 in one stacked product, the capture point on Python floats, the tilt from one entry of the torso's
 rotation, the "found" columns read as a slice, the divergence test on Python numbers, the
-takeover's flags."""
+takeover's flags; and the run's IMU filter, designed once per step size."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from fallbench.analysis.sensors import ImuModel
 from fallbench.assembly import run_world
 from fallbench.registry import load_policy, load_strategy
 from fallbench.scenario import Scenario
@@ -136,3 +137,11 @@ def test_the_takeover_flags_follow_the_switched_motors(world) -> None:
     assert (takeover.any_switched, takeover.all_switched) == (True, False)
     takeover.switch(np.ones(world.model.nu, dtype=bool), q, 0.2)
     assert (takeover.any_switched, takeover.all_switched) == (True, True)
+
+
+def test_the_imu_filter_is_the_same_on_every_call() -> None:
+    acc = np.random.default_rng(4).normal(0.0, 30.0, (500, 3))
+    imu = ImuModel()
+    first = imu.filtered(acc, 0.0005)
+    assert imu.filtered(acc, 0.00025).tobytes() != first.tobytes()
+    assert imu.filtered(acc, 0.0005).tobytes() == first.tobytes()
