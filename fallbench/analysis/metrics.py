@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from functools import cache
 
 import mujoco
 import numpy as np
@@ -24,7 +25,7 @@ from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, kn
 from fallbench.sim.recorder import Recording
 from fallbench.sim.rest import rest_posture
 from fallbench.sim.servo import pd_demand
-from fallbench.sim.world import World
+from fallbench.sim.world import World, found_columns
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
 IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated
@@ -255,16 +256,24 @@ def damage_metrics(
             else float("nan")
         )
     for chain, pattern in world.robot.torque_chains.items():
-        joints = [j for j, name in enumerate(world.joint_names) if re.fullmatch(pattern, name)]
+        joints = chain_joints(world.joint_names, pattern)
         row[f"torque_peak_{chain}"] = (
             float(np.abs(rec.actuator_force[:, joints]).max()) if joints and rec.steps else float("nan")
         )
-    found = (rec.sensordata[:, world.contact_found_columns] > 0).any(axis=0)  # per contact body
+    counts = rec.sensordata[:, found_columns(world.contact_found_columns)]  # contacts found, per body
+    found = (counts > 0).any(axis=0)  # per contact body
     touched = {body for body, touching in zip(world.contact_bodies, found) if touching}
     row["vulnerable_hits"] = sum(
         bool(touched & set(bodies)) for bodies in world.robot.vulnerable_parts.values()
     )
     return row
+
+
+@cache
+def chain_joints(joint_names: tuple[str, ...], pattern: str) -> tuple[int, ...]:
+    """Indices of the joints whose names match a torque chain's pattern (the same for every run of
+    a robot: matched once)."""
+    return tuple(j for j, name in enumerate(joint_names) if re.fullmatch(pattern, name))
 
 
 def replay_columns(rec: Recording) -> dict[str, np.ndarray]:
@@ -417,4 +426,9 @@ def timeseries(rec: Recording, forces: dict[str, np.ndarray] | None = None) -> p
             columns[f"K:{joint}"] = rec.kp[:, j]
             columns[f"B:{joint}"] = rec.kd[:, j]
     columns.update(replay_columns(rec))
-    return pd.DataFrame({k: np.asarray(v, dtype=np.float32) for k, v in columns.items()})
+    # one float32 block filled column by column (the same cast as np.asarray's): a frame built from
+    # ~100 separate columns spent ~0.6 ms a run in pandas' checks of each
+    block = np.empty((len(columns), len(rec.time)), dtype=np.float32)
+    for row, values in zip(block, columns.values()):
+        row[:] = values
+    return pd.DataFrame(block.T, columns=list(columns), copy=False)

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -48,10 +49,8 @@ class ImuModel:
         at rest on the first sample (no start-up transient)."""
         from scipy import signal  # here: importing scipy.signal takes ~0.5 s, and only runs filter
 
-        numerator, denominator = signal.butter(self.order, 2 * math.pi * self.bandwidth, analog=True)
-        discrete, poles, _ = signal.cont2discrete((numerator, denominator), dt, method="zoh")
-        b, a = np.ravel(discrete), np.ravel(poles)
-        initial = signal.lfilter_zi(b, a)[:, None] * acc[:1]
+        b, a, zi = _discrete_filter(self.order, self.bandwidth, dt)
+        initial = zi[:, None] * acc[:1]
         return signal.lfilter(b, a, acc, axis=0, zi=initial)[0]
 
     def read(self, time: np.ndarray, acc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -65,6 +64,24 @@ class ImuModel:
         at = grid / self.rate
         columns = [np.interp(at, time, smooth[:, axis]) for axis in range(acc.shape[1])]
         return at, np.stack(columns, axis=1)
+
+
+@cache
+def _discrete_filter(order: int, bandwidth: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Butterworth low-pass of `order` and `bandwidth` (Hz) discretised with a zero-order hold at
+    `dt` (s): numerator, denominator and the steady state of unit input (`lfilter_zi`), read-only.
+    Designed once per step size (a sweep's runs share a few): each design runs scipy's matrix
+    exponential, after which BLAS worker threads spun and, with the other core busy, slowed the
+    next run by tens of ms."""
+    from scipy import signal
+
+    numerator, denominator = signal.butter(order, 2 * math.pi * bandwidth, analog=True)
+    discrete, poles, _ = signal.cont2discrete((numerator, denominator), dt, method="zoh")
+    b, a = np.ravel(discrete), np.ravel(poles)
+    zi = signal.lfilter_zi(b, a)
+    for array in (b, a, zi):
+        array.flags.writeable = False
+    return b, a, zi
 
 
 def window_mean_peak(force: np.ndarray, dt: float, window: float = FORCE_WINDOW) -> float:

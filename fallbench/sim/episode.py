@@ -33,11 +33,11 @@ from fallbench.sim.events import FallWatch, ImpactDetector, SignalLog, make_fall
 from fallbench.sim.impacts import ImpactLog
 from fallbench.sim.push import PushForce
 from fallbench.sim.recorder import Recording, Trace
-from fallbench.sim.rest import RestWatch, divergence
+from fallbench.sim.rest import DivergenceWatch, RestWatch
 from fallbench.sim.sensing import DetectorInputs, Sensing
 from fallbench.sim.servo import ServoCommand, write_servo
 from fallbench.sim.takeover import Takeover
-from fallbench.sim.world import World, initial_state
+from fallbench.sim.world import World, found_columns, initial_state
 
 # Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
 # MUJOCO_LOG.TXT in the working folder) would only clutter a sweep's output.
@@ -70,9 +70,15 @@ class Episode:
         self.policy, self.strategy = policy, strategy
         model = world.model
         self.data = data = initial_state(world, scenario)
+        # views of MjData's arrays the substeps record, fetched once (each read of an MjData array
+        # makes a new view)
+        self.recorded = (data.qpos, data.qvel, data.sensordata, data.actuator_force)
         self.per_control = scenario.physics_steps_per_control
         self.n_steps = math.ceil(scenario.duration / scenario.control_dt - 1e-9) * self.per_control
         self.trace = Trace(self.n_steps, model.nsensordata, model.nq, model.nv, model.nu)
+        # a control step's substeps record their rows here, in the caches, and the trace takes them
+        # at once: written one by one into the trace's fresh memory, they cost ~2 us a substep
+        self.block = tuple(np.empty((self.per_control, len(array))) for array in self.recorded)
         self.impacts = ImpactLog(world)
         self.sensing = Sensing(world)
         self.fall, self.impact = make_fall_detector(scenario), ImpactDetector()
@@ -81,6 +87,10 @@ class Episode:
         self.watch = FallWatch(detection.hand_back_margin, detection.tilt, detection.hand_back_hold)
         feet = world.robot.body_groups.get("feet", ())
         self.not_feet = ~np.isin(world.contact_bodies, list(feet))  # contact bodies whose touch is an impact
+        self.found_columns = columns = found_columns(world.contact_found_columns)
+        # MjData's "found" columns (or its whole sensor row), a view: while none is nonzero, no
+        # contact body touches
+        self.touch_columns = data.sensordata[columns] if isinstance(columns, slice) else data.sensordata
         self.takeover = Takeover(world, scenario.timing, strategy.per_chain_switching)
         self.push = PushForce.of(world, scenario)
         self.pre_command = ServoCommand(
@@ -102,6 +112,7 @@ class Episode:
         self.step = self.since = 0  # physics step now, and at the previous control step
         self.physics_s, self.status, self.error = 0.0, "ok", ""
         self.rest = RestWatch(scenario, world.qvel_adr)
+        self.divergence = DivergenceWatch(data)
 
     @property
     def finished(self) -> bool:
@@ -127,8 +138,8 @@ class Episode:
         watching_fall = self.impact.time is None and not self.fall.all_fired
         inputs = self.detector_inputs() if watching_fall or self.signals.watching else None
         if inputs is not None:
-            body = bool((inputs.found & self.not_feet).any())
-            self.signals.update(t, inputs.distance, inputs.torso, inputs.imu_acc, body)
+            body = np.count_nonzero(inputs.found & self.not_feet) > 0
+            self.signals.log(t, inputs.distance, inputs.tilt, inputs.acc, body)
             if watching_fall:
                 self.detect_fall(t, inputs)
             self.start_strategy(t)
@@ -140,7 +151,8 @@ class Episode:
             found = inputs.found if inputs is not None else self.found()
         if self.fall.time is not None:
             self.detect_impacts(found)
-            switched_now = self.takeover.take_over(t, self.data.qpos[self.world.qpos_adr])
+            if self.takeover.due:  # (nothing to switch otherwise)
+                switched_now = self.takeover.take_over(t, self.data.qpos[self.world.qpos_adr])
         return Sensed(t, started, found, switched_now)
 
     def strategy_steps_now(self) -> bool:
@@ -148,7 +160,7 @@ class Episode:
         return (
             self.started is not None
             and self.watch.time is None
-            and not self.takeover.switched.all()
+            and not self.takeover.all_switched
             and self.step % self.per_control == 0
         )
 
@@ -165,12 +177,14 @@ class Episode:
         self.apply_push(t)
         self.physics()
         if not self.diverged():
-            self.rest.update(self.step * self.scenario.physics_dt, self.data.qvel)
+            self.rest.update(self.step * self.scenario.physics_dt, self.recorded[1])
 
     def found(self) -> np.ndarray:
-        """Per contact body: whether its contact sensor found a contact since the last control step."""
-        rows = self.trace.sensordata[self.since : self.step] if self.step else self.sensor_row[None]
-        return np.take(rows, self.world.contact_found_columns, axis=1).max(axis=0) > 0
+        """Per contact body: whether its contact sensor found a contact since the last control step
+        (read from the substeps' rows while they are in the caches: the trace's copy of them)."""
+        rows = self.block[2][: self.step - self.since] if self.step else self.sensor_row[None]
+        # (np.maximum.reduce: `.max(axis=0)` without its Python wrapper)
+        return np.maximum.reduce(rows[:, self.found_columns], axis=0) > 0
 
     def names(self, mask: np.ndarray) -> set[str]:
         return {self.world.contact_bodies[i] for i in np.flatnonzero(mask)}
@@ -184,15 +198,7 @@ class Episode:
         note the bodies already touching."""
         detected = self.fall.time is not None
         if (
-            self.fall.update(
-                t,
-                inputs.torso,
-                inputs.imu_acc,
-                inputs.com,
-                inputs.com_velocity,
-                inputs.support,
-                inputs.distance,
-            )
+            self.fall.observe(t, len(inputs.support) > 0, inputs.distance, inputs.tilt, inputs.acc)
             and not detected
         ):
             self.seen = self.sensing.whole_feet(inputs.found)
@@ -242,15 +248,17 @@ class Episode:
         (all motors, unless the strategy switches per chain) `timing.takeover_latency` s later."""
         planned = self.strategy.planned_contacts()
         self.unplanned = ~np.isin(self.world.contact_bodies, list(planned)) if planned else True
-        fresh = found & ~self.seen & self.unplanned
-        if not fresh.any():
+        fresh = found > self.seen  # found & ~seen, in one operation
+        if planned:
+            fresh &= self.unplanned
+        if not np.count_nonzero(fresh):
             return
         self.seen |= fresh
         new, touched = self.names(fresh), self.first_sampled(fresh)
         first = self.impact.time is None
         self.impact.update(touched, new)
         self.impacts.update(touched, new, self.data, self.data.qpos, self.data.qvel)
-        if self.impact.time is None or self.takeover.switched.all() or not self.strategy.hands_over:
+        if self.impact.time is None or self.takeover.all_switched or not self.strategy.hands_over:
             return  # a whole-fall controller (`hands_over` False) keeps its motors
         self.takeover.schedule(touched, new, first)
 
@@ -271,7 +279,7 @@ class Episode:
     def command(self, t: float, found: np.ndarray, switched_now: bool) -> ServoCommand:
         """The servo command: the gain policy's on switched motors, the strategy's on the others."""
         takeover, policy = self.takeover, self.policy
-        if not takeover.switched.any():
+        if not takeover.any_switched:
             return self.pre_command
         if switched_now or not policy.static or self.policy_command is None:
             world, qpos, qvel = self.world, self.data.qpos, self.data.qvel
@@ -299,40 +307,51 @@ class Episode:
         them at once (to log the impact), and so does a takeover falling due."""
         self.since = self.step
         # a whole-fall controller hands nothing over: its impacts are logged from the trace alone
-        watching = (
-            self.fall.time is not None and not self.takeover.switched.all() and self.strategy.hands_over
-        )
-        watched = self.world.contact_found_columns[~self.seen & self.unplanned] if watching else None
+        watching = self.fall.time is not None and not self.takeover.all_switched and self.strategy.hands_over
+        watched = self.world.contact_found_columns[self.watched_bodies()] if watching else None
         model, data, trace = self.world.model, self.data, self.trace
         trace.reserve(self.step + self.per_control)
         # s: the earliest takeover falling due (the list does not change during the substeps)
         due_at = self.takeover.due_at()
-        # the substeps run some 800 000 times a sweep: MjData's and the trace's arrays, the step
-        # and the physics time are read once here, not per substep
-        qpos, qvel, sensordata, actuator_force = data.qpos, data.qvel, data.sensordata, data.actuator_force
-        trace_qpos, trace_qvel = trace.qpos, trace.qvel
-        trace_sensordata, trace_actuator_force = trace.sensordata, trace.actuator_force
+        # the substeps run some 800 000 times a sweep: MjData's and the trace's arrays, the step,
+        # the physics time and the functions called are read once here, not per substep
+        mj_step, clock, nonzero = mujoco.mj_step, time.perf_counter, np.count_nonzero
+        qpos, qvel, sensordata, actuator_force = self.recorded
+        touching = self.touch_columns
+        block_qpos, block_qvel, block_sensordata, block_actuator_force = self.block
         step, physics_dt, physics_s = self.step, self.scenario.physics_dt, self.physics_s
-        for _ in range(self.per_control - step % self.per_control):
-            trace_qpos[step] = qpos
-            trace_qvel[step] = qvel
-            stepped = time.perf_counter()
-            mujoco.mj_step(model, data)
-            physics_s += time.perf_counter() - stepped
+        substeps = self.per_control - step % self.per_control
+        if due_at < math.inf:  # the first substep ending at or past it is the last (found here, once)
+            substeps = next((k for k in range(1, substeps) if (step + k) * physics_dt >= due_at), substeps)
+        for row in range(substeps):
+            block_qpos[row] = qpos
+            block_qvel[row] = qvel
+            stepped = clock()
+            mj_step(model, data)
+            physics_s += clock() - stepped
             # sensors and actuator forces are computed inside the step, from the state before it
-            trace_sensordata[step] = sensordata
-            trace_actuator_force[step] = actuator_force
+            block_sensordata[row] = sensordata
+            block_actuator_force[row] = actuator_force
             step += 1
-            if watched is not None and sensordata[watched].any():
+            # (count_nonzero: `.any()`'s answer, NaN included, without a reduction's ~0.7 us; the
+            # watched columns are read only once a body touches)
+            if watched is not None and nonzero(touching) and nonzero(sensordata.take(watched)):
                 break
-            if step * physics_dt >= due_at:
-                break
+        since, rows = self.since, step - self.since
+        trace.qpos[since:step], trace.qvel[since:step] = block_qpos[:rows], block_qvel[:rows]
+        trace.sensordata[since:step] = block_sensordata[:rows]
+        trace.actuator_force[since:step] = block_actuator_force[:rows]
         self.step, self.physics_s = step, physics_s
-        self.sensor_row = trace_sensordata[step - 1]
+        self.sensor_row = trace.sensordata[step - 1]
+
+    def watched_bodies(self) -> np.ndarray:
+        """The contact bodies not seen touching yet whose contact would be an impact (unplanned)."""
+        fresh = ~self.seen
+        return fresh if self.unplanned is True else fresh & self.unplanned
 
     def diverged(self) -> bool:
         """A divergence warning or a NaN or inf anywhere: the run stops and is stored as diverged."""
-        reason = divergence(self.data)
+        reason = self.divergence.reason()
         if reason is None:
             return False
         self.status, self.error = "diverged", reason

@@ -31,8 +31,18 @@ METHODS = ("capture_point", "tilt", "freefall")
 
 def tilt_deg(rotation: np.ndarray) -> float:
     """Angle between a body's z axis and the world vertical, deg."""
-    cosine = min(max(float(rotation[2, 2]), -1.0), 1.0)  # np.clip's value, 3 -> 0.4 us a call
-    return math.degrees(math.acos(cosine))
+    return tilt_from_cosine(float(rotation[2, 2]))
+
+
+def tilt_from_cosine(cosine: float) -> float:
+    """deg: `tilt_deg` of a rotation whose (2, 2) entry is `cosine`."""
+    return math.degrees(math.acos(min(max(cosine, -1.0), 1.0)))  # np.clip's value, 3 -> 0.4 us a call
+
+
+def acc_norm(imu_acc: np.ndarray) -> float:
+    """m/s^2: the accelerometer's norm as np.linalg.norm computes it (the square root of the dot
+    product), without its checks (~3 us a call)."""
+    return math.sqrt(float(np.dot(imu_acc, imu_acc)))
 
 
 def capture_point(com: np.ndarray, com_velocity: np.ndarray, gravity: float = GRAVITY) -> np.ndarray:
@@ -52,8 +62,24 @@ def capture_point_distance(
     outside, see `signed_distance`); NaN without support points (airborne)."""
     if not len(support_points):
         return math.nan
-    point = capture_point(com, com_velocity, gravity)
-    return _distance_to_hull(float(point[0]), float(point[1]), _hull(support_points))
+    return support_distance(
+        np.asarray(com, dtype=float).tolist(),
+        np.asarray(com_velocity, dtype=float).tolist(),
+        np.asarray(support_points, dtype=float)[:, :2].tolist(),
+        gravity,
+    )
+
+
+def support_distance(
+    com: list[float], com_velocity: list[float], support_points: list[list[float]], gravity: float = GRAVITY
+) -> float:
+    """`capture_point_distance` on Python floats (a control step's: its NumPy calls cost more than
+    its arithmetic), for at least one support point. `capture_point`'s division and sum are the
+    same per axis as NumPy's element by element."""
+    omega0 = math.sqrt(gravity / max(com[2], 1e-3))
+    x = com[0] + com_velocity[0] / omega0
+    y = com[1] + com_velocity[1] / omega0
+    return _distance_to_hull(x, y, _hull_of(support_points))
 
 
 def support_polygon(points: np.ndarray) -> np.ndarray:
@@ -68,8 +94,12 @@ def support_polygon(points: np.ndarray) -> np.ndarray:
 def _hull(points: np.ndarray) -> list[Point]:
     """`support_polygon`'s vertices (m) as Python floats: the same arithmetic as NumPy's, and on
     some 60 foot corners per control step faster than NumPy's per-call cost."""
-    # distinct points sorted by x, then y
-    ordered: list[Point] = sorted(set(map(tuple, np.asarray(points, dtype=float)[:, :2].tolist())))
+    return _hull_of(np.asarray(points, dtype=float)[:, :2].tolist())
+
+
+def _hull_of(points: list[list[float]]) -> list[Point]:
+    """`_hull` of points given as [x, y] lists (m)."""
+    ordered: list[Point] = sorted(set(map(tuple, points)))  # distinct points sorted by x, then y
     if len(ordered) <= 2:
         return ordered
     lower, upper = _chain(ordered), _chain(ordered[::-1])
@@ -79,15 +109,19 @@ def _hull(points: np.ndarray) -> list[Point]:
 def _chain(points: list[Point]) -> list[Point]:
     """One half of the hull: the points where the chain turns left (collinear ones dropped)."""
     chain: list[Point] = []
+    pop, append, length = chain.pop, chain.append, 0  # (the list's methods and length, held: ~15 % faster)
     for point in points:
         x, y = point
-        while len(chain) >= 2:
-            (origin_x, origin_y), (last_x, last_y) = chain[-2], chain[-1]
+        while length >= 2:
+            origin_x, origin_y = chain[length - 2]
+            last_x, last_y = chain[length - 1]
             # the cross product (last - origin) x (point - origin): > 0 turns left
             if (last_x - origin_x) * (y - origin_y) - (last_y - origin_y) * (x - origin_x) > 0:
                 break
-            chain.pop()
-        chain.append(point)
+            pop()
+            length -= 1
+        append(point)
+        length += 1
     return chain
 
 
@@ -139,6 +173,12 @@ class CapturePointDetector:
         if self.time is None and len(support_points):
             if distance is None:
                 distance = capture_point_distance(com, com_velocity, support_points, self.gravity)
+            self.observe(t, distance)
+        return self.time is not None
+
+    def observe(self, t: float, distance: float) -> bool:
+        """`update` with the capture point's distance (m) to the support of a state with support."""
+        if self.time is None:
             self.distance = distance
             if self.distance > self.margin:
                 self.time = t
@@ -153,7 +193,11 @@ class TiltDetector:
     time: float | None = None
 
     def update(self, t: float, torso_rotation: np.ndarray) -> bool:
-        if self.time is None and tilt_deg(torso_rotation) > self.threshold:
+        return self.observe(t, tilt_deg(torso_rotation)) if self.time is None else True
+
+    def observe(self, t: float, tilt: float) -> bool:
+        """`update` with the torso's tilt (deg, `tilt_deg`)."""
+        if self.time is None and tilt > self.threshold:
             self.time = t
         return self.time is not None
 
@@ -170,9 +214,13 @@ class FreefallDetector:
     since: float | None = None
 
     def update(self, t: float, imu_acc: np.ndarray) -> bool:
+        return self.observe(t, acc_norm(imu_acc)) if self.time is None else True
+
+    def observe(self, t: float, norm: float) -> bool:
+        """`update` with the accelerometer's norm (m/s^2, `acc_norm`)."""
         if self.time is not None:
             return True
-        if float(np.linalg.norm(imu_acc)) >= self.threshold:
+        if norm >= self.threshold:
             self.since = None
         elif self.since is None:
             self.since = t
@@ -204,12 +252,28 @@ class FallDetector:
         support_points: np.ndarray,
         distance: float | None = None,
     ) -> bool:
-        """Feed every detector one control step; True once the fall is declared."""
+        """Feed every detector one control step; True once the fall is declared. `distance`:
+        `capture_point_distance` of the same state, when the caller has it."""
         self.capture.update(t, com, com_velocity, support_points, distance)
         self.tilt.update(t, torso_rotation)
         self.freefall.update(t, imu_acc)
-        detectors = {"capture_point": self.capture, "tilt": self.tilt, "freefall": self.freefall}
-        self.times = {name: d.time for name, d in detectors.items() if d.time is not None}
+        return self.declare()
+
+    def observe(self, t: float, supported: bool, distance: float, tilt: float, acc: float) -> bool:
+        """`update` with the state's signals: whether a foot touches (`supported`), the capture
+        point's distance to the support (m; read only with support), the torso's tilt (deg) and the
+        accelerometer's norm (m/s^2)."""
+        if supported:
+            self.capture.observe(t, distance)
+        self.tilt.observe(t, tilt)
+        self.freefall.observe(t, acc)
+        return self.declare()
+
+    def declare(self) -> bool:
+        """Note each detector's firing time and declare the fall at the earliest selected one."""
+        if len(self.times) < len(METHODS):  # a detector's time, once set, never changes
+            detectors = {"capture_point": self.capture, "tilt": self.tilt, "freefall": self.freefall}
+            self.times = {name: d.time for name, d in detectors.items() if d.time is not None}
         if self.time is None:
             fired = [(self.times[m], METHODS.index(m), m) for m in self.methods if m in self.times]
             if fired:
@@ -275,13 +339,16 @@ class SignalLog:
         self, t: float, distance: float, torso_rotation: np.ndarray, imu_acc: np.ndarray, body_touching: bool
     ) -> None:
         """One control step: `distance` as `capture_point_distance` gives it (m, NaN without support)."""
+        self.log(t, distance, tilt_deg(torso_rotation), acc_norm(imu_acc), body_touching)
+
+    def log(self, t: float, distance: float, tilt: float, acc: float, body_touching: bool) -> None:
+        """`update` with the tilt (deg, `tilt_deg`) and the accelerometer's norm (m/s^2, `acc_norm`)."""
         if not self.watching:
             return
         if body_touching:
             self.body_contact_time = t
             return
-        # |acc| as np.linalg.norm computes it (the square root of the dot product), without its checks
-        self.rows.append((t, distance, tilt_deg(torso_rotation), math.sqrt(float(np.dot(imu_acc, imu_acc)))))
+        self.rows.append((t, distance, tilt, acc))
 
     def array(self) -> np.ndarray:
         """(steps, 4): t (s), capture-point distance (m), tilt (deg), accelerometer norm (m/s^2)."""

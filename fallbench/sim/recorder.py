@@ -83,13 +83,15 @@ TRACE_ARRAYS = ("sensordata", "qpos", "qvel", "actuator_force")  # the physics-r
 
 class Trace:
     """The physics-rate arrays of an episode, filled step by step, and the servo changes. They
-    grow as the run goes on (`reserve`): a run ends at rest, long before its cap as a rule."""
+    grow as the run goes on (`reserve`): a run ends at rest, long before its cap as a rule. Rows
+    are read only once written (up to the episode's step): the arrays start uninitialised, not
+    zeroed (zeroing some 8 MB took ~0.6 ms a run)."""
 
     def __init__(self, n_steps: int, nsensordata: int, nq: int, nv: int, nu: int) -> None:
         self.limit = n_steps  # physics steps at the cap
         rows = min(n_steps, INITIAL_ROWS)
         self.sensordata, self.qpos, self.qvel, self.actuator_force = (
-            np.zeros((rows, columns)) for columns in (nsensordata, nq, nv, nu)
+            np.empty((rows, columns)) for columns in (nsensordata, nq, nv, nu)
         )
         self.changes: list[tuple[int, ServoCommand]] = []  # (physics step, command) where the servo changed
 
@@ -101,7 +103,7 @@ class Trace:
         rows = min(max(steps, 2 * rows), self.limit)
         for name in TRACE_ARRAYS:
             old = getattr(self, name)
-            grown = np.zeros((rows, old.shape[1]))
+            grown = np.empty((rows, old.shape[1]))
             grown[: len(old)] = old
             setattr(self, name, grown)
 

@@ -56,11 +56,30 @@ class FootSupport:
             geoms, corners = body_box_corners(model, model.body(world.contact_bodies[i]).id)
             self.geoms.append(geoms)
             self.corners.append(corners)
+        # per set of feet in contact (a tuple of flags over `columns`): their geoms and corners stacked
+        self.stacked: dict[tuple[bool, ...], tuple[np.ndarray, np.ndarray]] = {}
 
     def points(self, data: mujoco.MjData, found: np.ndarray) -> np.ndarray:
         """(n, 2) ground-plane points of the feet whose contact sensors are in `found` (a mask
-        over the world's contact bodies); empty when no foot touches."""
-        touching = [k for k, i in enumerate(self.columns) if found[i]]
-        if not touching:
+        over the world's contact bodies); empty when no foot touches.
+
+        The corners of every geom of the feet in contact are moved in one stacked product, which
+        multiplies each geom's (8, 3) corners by its rotation in the same BLAS call, on the same
+        operands, as `world_corners` does geom after geom (the same numbers, without the per-geom
+        NumPy calls: some 10 us of a control step's ~60 until a body touches)."""
+        touching = tuple(found.take(self.columns).tolist())
+        stacked = self.stacked.get(touching)
+        if stacked is None:
+            stacked = self.stacked[touching] = self.stack(touching)
+        geoms, corners = stacked
+        if not len(geoms):
             return np.zeros((0, 2))
-        return np.concatenate([world_corners(data, self.geoms[k], self.corners[k]) for k in touching])[:, :2]
+        rotations = data.geom_xmat[geoms].reshape(-1, 3, 3).transpose(0, 2, 1)
+        return (corners @ rotations + data.geom_xpos[geoms][:, None]).reshape(-1, 3)[:, :2]
+
+    def stack(self, touching: tuple[bool, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """The geoms (g,) and their corners (g, 8, 3) of the feet flagged in `touching`, foot by foot."""
+        feet = [k for k, flag in enumerate(touching) if flag]
+        if not feet:
+            return np.zeros(0, dtype=int), np.zeros((0, 8, 3))
+        return np.concatenate([self.geoms[k] for k in feet]), np.concatenate([self.corners[k] for k in feet])

@@ -31,6 +31,8 @@ class Takeover:
     def __init__(self, world: World, timing: Timing, per_chain: bool) -> None:
         nu = world.model.nu
         self.switched = np.zeros(nu, dtype=bool)
+        # whether any motor, and every motor, has switched: read at every control step (`switch` sets them)
+        self.any_switched, self.all_switched = False, bool(self.switched.all())
         self.time = np.full(nu, np.nan)  # s per motor, NaN = never
         self.q_ref: np.ndarray | None = None
         self.due: list[tuple[float, np.ndarray]] = []  # (s, motors): switches waiting for the latency
@@ -67,11 +69,12 @@ class Takeover:
         self.q_ref = np.where(fresh, q, self.q_ref if self.q_ref is not None else q)
         self.time[fresh] = t
         self.switched = self.switched | now
+        self.any_switched, self.all_switched = bool(self.switched.any()), bool(self.switched.all())
         return True
 
     def compose(self, policy: ServoCommand, other: ServoCommand) -> ServoCommand:
         """Switched motors follow the gain policy, the others the pre-impact command."""
-        if self.switched.all():
+        if self.all_switched:
             return policy
         return ServoCommand(
             *(

@@ -61,6 +61,18 @@ class World:
         return sensordata[..., s.start : s.start + s.size]
 
 
+def found_columns(columns: np.ndarray) -> slice | np.ndarray:
+    """The contact sensors' "found" columns of the sensor rows (`World.contact_found_columns`), as a
+    slice when evenly spaced (the sensors follow one another): a view of the rows, where a list of
+    columns copies them."""
+    if len(columns) < 2:
+        return columns
+    stride = int(columns[1] - columns[0])
+    if stride <= 0 or not np.array_equal(columns, np.arange(columns[0], columns[-1] + 1, stride)):
+        return columns
+    return slice(int(columns[0]), int(columns[-1]) + 1, stride)
+
+
 # ---------------------------------------------------------------- compiled world
 #
 # Ownership: the cache (`_SCENES`, one `World` per scene, at most `SCENES_KEPT`) owns the compiled
@@ -230,18 +242,20 @@ def build_world(scenario: Scenario) -> World:
 
 
 LEVEL_SOLES = 1e-6  # m: soles whose lowest points differ by less are level (float32 mesh vertices)
+BOX_CORNERS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T  # a unit box's, (8, 3)
 
 
 def _lowest_point(model: mujoco.MjModel, data: mujoco.MjData, body_ids: set[int]) -> float:
     """Lowest z of the robot's collision geometry (box corners and mesh vertices)."""
     lowest = math.inf
+    geom_body, geom_type = model.geom_bodyid.tolist(), model.geom_type.tolist()  # read once, not per geom
     for g in range(model.ngeom):
-        if model.geom_bodyid[g] not in body_ids:
+        if geom_body[g] not in body_ids:
             continue
         rot, pos = data.geom_xmat[g].reshape(3, 3), data.geom_xpos[g]
-        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
-            corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T * model.geom_size[g]
-        elif model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+        if geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+            corners = BOX_CORNERS * model.geom_size[g]
+        elif geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
             mesh = model.geom_dataid[g]
             start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
             corners = model.mesh_vert[start : start + count]
