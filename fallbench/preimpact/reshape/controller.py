@@ -101,6 +101,10 @@ class ReshapeConfig:
     # The servo reference's velocity is cut so that the PD's rest point q_ref + (B / K) qd_ref stays
     # inside the range less the margin: a reference held on a range end carries no velocity past it.
     joint_limit_servo_lag: bool = False
+    # Off by default: the QP holds each joint's speed toward a range end to what this fraction of
+    # its motor's torque limit, over the joint's own inertia, can stop before the end (a viability
+    # bound; the 20 ms horizon alone lets a fast joint arrive faster than its motor can brake).
+    joint_limit_braking: float = 0.0  # fraction of torque limit / H_kk
     pivot: Literal["contacts", "knees", "knees_and_buttocks"] = (
         "contacts"  # the landing search's stick, see _stick
     )
@@ -118,6 +122,8 @@ class ReshapeConfig:
             raise ValueError(f"reshape: elbow_back must be in [0, 1], not {self.elbow_back}")
         if self.joint_limit_margin < 0.0:
             raise ValueError(f"reshape: joint_limit_margin must be >= 0, not {self.joint_limit_margin}")
+        if self.joint_limit_braking < 0.0:
+            raise ValueError(f"reshape: joint_limit_braking must be >= 0, not {self.joint_limit_braking}")
 
 
 @dataclass
@@ -231,6 +237,7 @@ class ReshapeController:
             cfg.w_qdd,
             cfg.w_contact,
             cfg.joint_limit_margin,
+            cfg.joint_limit_braking,
         )
         solving = time.perf_counter()
         status, solved, accelerations = solve_reshape(self.qp, problem)
