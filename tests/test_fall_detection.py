@@ -18,16 +18,37 @@ from fallbench.sim.events import (
     FreefallDetector,
     ImpactDetector,
     TiltDetector,
+    acc_norm,
     capture_point,
     make_fall_detector,
     signed_distance,
+    support_distance,
     support_polygon,
+    tilt_deg,
 )
 from fallbench.sim.world import build_world, initial_state
 
 SQUARE = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]])  # m, a 0.2 x 0.1 foot
 UPRIGHT = np.eye(3)
 STANDING_ACC = np.array([0.0, 0.0, 9.81])
+AIRBORNE = np.zeros((0, 2))  # no support points
+
+
+def _signals(
+    torso_rotation: np.ndarray,
+    imu_acc: np.ndarray,
+    com: np.ndarray,
+    com_velocity: np.ndarray,
+    support: np.ndarray,
+) -> tuple[bool, float, float, float]:
+    """What the episode passes to `FallDetector.observe` for a state (`sensing.Sensing.detector_inputs`):
+    whether a foot touches, the capture point's distance to the support (m, NaN without support), the
+    torso's tilt (deg) and the accelerometer's norm (m/s^2)."""
+    supported = len(support) > 0
+    distance = (
+        support_distance(com.tolist(), com_velocity.tolist(), support.tolist()) if supported else math.nan
+    )
+    return supported, distance, tilt_deg(torso_rotation), acc_norm(imu_acc)
 
 
 def test_capture_point_of_a_linear_inverted_pendulum() -> None:
@@ -73,20 +94,21 @@ def test_signed_distance_to_a_degenerate_polygon() -> None:
 
 def test_capture_point_detector_fires_past_the_margin_only() -> None:
     detector = CapturePointDetector(margin=0.02)
+    fall = FallDetector(("capture_point",), detector, TiltDetector(15.0), FreefallDetector(3.0, 0.02))
     com = np.array([0.1, 0.05, 0.981])
     omega0 = math.sqrt(10.0)
-    assert not detector.update(
-        0.0, com, np.array([0.115 * omega0, 0.0, 0.0]), SQUARE
-    )  # xi 1.5 cm past the toe
+
+    def observe(t: float, com_velocity: np.ndarray, support: np.ndarray) -> bool:
+        fall.observe(t, *_signals(UPRIGHT, STANDING_ACC, com, com_velocity, support))
+        return detector.time is not None
+
+    assert not observe(0.0, np.array([0.115 * omega0, 0.0, 0.0]), SQUARE)  # xi 1.5 cm past the toe
     assert detector.distance == pytest.approx(0.015)
-    assert not detector.update(
-        0.005, com, np.array([0.3 * omega0, 0.0, 0.0]), np.zeros((0, 2))
-    )  # airborne: no judgement
-    assert detector.update(0.01, com, np.array([0.125 * omega0, 0.0, 0.0]), SQUARE)  # 2.5 cm past
+    assert not observe(0.005, np.array([0.3 * omega0, 0.0, 0.0]), AIRBORNE)  # airborne: no judgement
+    assert detector.distance == pytest.approx(0.015)  # nor a distance
+    assert observe(0.01, np.array([0.125 * omega0, 0.0, 0.0]), SQUARE)  # 2.5 cm past
     assert detector.time == 0.01
-    assert (
-        detector.update(0.015, com, np.zeros(3), SQUARE) and detector.time == 0.01
-    )  # the first firing is kept
+    assert observe(0.015, np.zeros(3), SQUARE) and detector.time == 0.01  # the first firing is kept
 
 
 def _detector(methods: tuple[str, ...]) -> FallDetector:
@@ -108,9 +130,9 @@ def test_the_earliest_selected_detector_declares_the_fall(
     tilted = np.array(
         [[1.0, 0.0, 0.0], [0.0, math.cos(0.5), -math.sin(0.5)], [0.0, math.sin(0.5), math.cos(0.5)]]
     )  # 28.6 deg
-    assert not detector.update(0.0, UPRIGHT, STANDING_ACC, com, np.zeros(3), SQUARE)
-    detector.update(0.01, UPRIGHT, STANDING_ACC, com, fast, SQUARE)
-    detector.update(0.02, tilted, STANDING_ACC, com, fast, SQUARE)
+    assert not detector.observe(0.0, *_signals(UPRIGHT, STANDING_ACC, com, np.zeros(3), SQUARE))
+    detector.observe(0.01, *_signals(UPRIGHT, STANDING_ACC, com, fast, SQUARE))
+    detector.observe(0.02, *_signals(tilted, STANDING_ACC, com, fast, SQUARE))
     assert (detector.reason, detector.time) == (reason, time)
     assert detector.times == {"capture_point": 0.01, "tilt": 0.02}  # every detector's time, selected or not
 
@@ -168,12 +190,12 @@ def test_freefall_needs_a_whole_hold_and_a_reading_above_resets_it() -> None:
     low = np.array([0.0, 0.0, 2.9])  # below the threshold
     readings = [low] * 3 + [STANDING_ACC] + [low] * 4 + [STANDING_ACC]  # 0-10 ms, 15 ms, 20-35 ms, 40 ms
     for k, acc in enumerate(readings):
-        assert not detector.update(0.005 * k, acc), f"fired at {0.005 * k} s"
+        assert not detector.observe(0.005 * k, acc_norm(acc)), f"fired at {0.005 * k} s"
     assert detector.since is None  # the last normal reading reset the timer
     for k in range(9, 13):  # 45-60 ms: 15 ms of free fall so far
-        assert not detector.update(0.005 * k, low)
-    assert detector.update(0.065, low) and detector.time == pytest.approx(0.045)
-    assert detector.update(0.07, STANDING_ACC) and detector.time == pytest.approx(0.045)
+        assert not detector.observe(0.005 * k, acc_norm(low))
+    assert detector.observe(0.065, acc_norm(low)) and detector.time == pytest.approx(0.045)
+    assert detector.observe(0.07, acc_norm(STANDING_ACC)) and detector.time == pytest.approx(0.045)
 
 
 def test_impact_is_the_first_new_contact_after_the_fall_starts() -> None:

@@ -12,6 +12,7 @@ from fallbench.analysis.metrics import (
     moving_average,
     torque_metrics,
 )
+from fallbench.sim.world import found_columns
 
 
 def test_imu_peaks_raw_and_smoothed() -> None:
@@ -65,6 +66,7 @@ def test_damage_measures_on_hand_made_signals() -> None:
         joint_names=("leg_1", "leg_2", "arm_1"),
         contact_bodies=["head_link", "gripper_a", "gripper_b", "foot"],
         contact_found_columns=np.array([0, 1, 2, 3]),
+        contact_found_index=found_columns(np.array([0, 1, 2, 3])),
     )
     sensordata = np.zeros((4, 4))
     sensordata[2, 1] = sensordata[3, 2] = 1  # both bodies of the left gripper touch: one part

@@ -25,7 +25,7 @@ from fallbench.sim.impacts import first_impact_prescribed, head_before_hands, kn
 from fallbench.sim.recorder import Recording
 from fallbench.sim.rest import rest_posture
 from fallbench.sim.servo import pd_demand
-from fallbench.sim.world import World, found_columns
+from fallbench.sim.world import World
 
 LIMIT_HIT_TOLERANCE = 1e-3  # rad past a joint limit that counts as hitting the stop
 IMPULSE_WINDOW = 0.1  # s after the first impact over which the impulse is integrated
@@ -260,7 +260,7 @@ def damage_metrics(
         row[f"torque_peak_{chain}"] = (
             float(np.abs(rec.actuator_force[:, joints]).max()) if joints and rec.steps else float("nan")
         )
-    counts = rec.sensordata[:, found_columns(world.contact_found_columns)]  # contacts found, per body
+    counts = rec.sensordata[:, world.contact_found_index]  # contacts found, per body
     found = (counts > 0).any(axis=0)  # per contact body
     touched = {body for body, touching in zip(world.contact_bodies, found) if touching}
     row["vulnerable_hits"] = sum(

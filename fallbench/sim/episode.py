@@ -37,7 +37,7 @@ from fallbench.sim.rest import DivergenceWatch, RestWatch
 from fallbench.sim.sensing import DetectorInputs, Sensing
 from fallbench.sim.servo import ServoCommand, write_servo
 from fallbench.sim.takeover import Takeover
-from fallbench.sim.world import World, found_columns, initial_state
+from fallbench.sim.world import World, initial_state
 
 # Divergence is read from data.warning and stored with the run; MuJoCo's own printout (and its
 # MUJOCO_LOG.TXT in the working folder) would only clutter a sweep's output.
@@ -87,7 +87,7 @@ class Episode:
         self.watch = FallWatch(detection.hand_back_margin, detection.tilt, detection.hand_back_hold)
         feet = world.robot.body_groups.get("feet", ())
         self.not_feet = ~np.isin(world.contact_bodies, list(feet))  # contact bodies whose touch is an impact
-        self.found_columns = columns = found_columns(world.contact_found_columns)
+        self.found_columns = columns = world.contact_found_index
         # MjData's "found" columns (or its whole sensor row), a view: while none is nonzero, no
         # contact body touches
         self.touch_columns = data.sensordata[columns] if isinstance(columns, slice) else data.sensordata

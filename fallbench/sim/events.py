@@ -1,6 +1,7 @@
 """Fall and impact detection, as a controller on the robot would see them.
 
-Three fall detectors, each usable on its own (plain arrays in, no simulator):
+Three fall detectors, each usable on its own (plain numbers in, no simulator: the signals of
+`capture_point_distance`, `tilt_deg` and `acc_norm`, as `sim/sensing.py` reads them):
 
 - `capture_point`: the instantaneous capture point xi = c_xy + c_dot_xy / omega0, omega0 =
   sqrt(g / z_c) (Pratt et al. 2006, the fall trigger of 004 Sec. III-D), leaves the support
@@ -157,27 +158,12 @@ class CapturePointDetector:
     Without support points (airborne) it cannot judge and does not fire."""
 
     margin: float  # m
-    gravity: float = GRAVITY
     time: float | None = None
-    distance: float = -math.inf  # m, capture point's signed distance to the polygon at the last update
-
-    def update(
-        self,
-        t: float,
-        com: np.ndarray,
-        com_velocity: np.ndarray,
-        support_points: np.ndarray,
-        distance: float | None = None,
-    ) -> bool:
-        """`distance` (m, `capture_point_distance` of the same state), when the caller has it."""
-        if self.time is None and len(support_points):
-            if distance is None:
-                distance = capture_point_distance(com, com_velocity, support_points, self.gravity)
-            self.observe(t, distance)
-        return self.time is not None
+    distance: float = -math.inf  # m, capture point's signed distance to the polygon at the last observation
 
     def observe(self, t: float, distance: float) -> bool:
-        """`update` with the capture point's distance (m) to the support of a state with support."""
+        """One control step of a state with support: the capture point's distance (m,
+        `capture_point_distance`) to the support polygon. True once fired."""
         if self.time is None:
             self.distance = distance
             if self.distance > self.margin:
@@ -192,11 +178,8 @@ class TiltDetector:
     threshold: float  # deg
     time: float | None = None
 
-    def update(self, t: float, torso_rotation: np.ndarray) -> bool:
-        return self.observe(t, tilt_deg(torso_rotation)) if self.time is None else True
-
     def observe(self, t: float, tilt: float) -> bool:
-        """`update` with the torso's tilt (deg, `tilt_deg`)."""
+        """One control step: the torso's tilt (deg, `tilt_deg`). True once fired."""
         if self.time is None and tilt > self.threshold:
             self.time = t
         return self.time is not None
@@ -213,11 +196,8 @@ class FreefallDetector:
     time: float | None = None
     since: float | None = None
 
-    def update(self, t: float, imu_acc: np.ndarray) -> bool:
-        return self.observe(t, acc_norm(imu_acc)) if self.time is None else True
-
     def observe(self, t: float, norm: float) -> bool:
-        """`update` with the accelerometer's norm (m/s^2, `acc_norm`)."""
+        """One control step: the accelerometer's norm (m/s^2, `acc_norm`). True once fired."""
         if self.time is not None:
             return True
         if norm >= self.threshold:
@@ -232,7 +212,7 @@ class FreefallDetector:
 @dataclass
 class FallDetector:
     """The three detectors side by side. The fall is declared by the earliest of `methods`;
-    `update` goes on feeding the others (`watch`) so that `times` records when each fired."""
+    `observe` goes on feeding the others so that `times` records when each fired."""
 
     methods: tuple[str, ...]
     capture: CapturePointDetector
@@ -242,27 +222,10 @@ class FallDetector:
     reason: str = ""
     times: dict[str, float] = field(default_factory=dict)
 
-    def update(
-        self,
-        t: float,
-        torso_rotation: np.ndarray,
-        imu_acc: np.ndarray,
-        com: np.ndarray,
-        com_velocity: np.ndarray,
-        support_points: np.ndarray,
-        distance: float | None = None,
-    ) -> bool:
-        """Feed every detector one control step; True once the fall is declared. `distance`:
-        `capture_point_distance` of the same state, when the caller has it."""
-        self.capture.update(t, com, com_velocity, support_points, distance)
-        self.tilt.update(t, torso_rotation)
-        self.freefall.update(t, imu_acc)
-        return self.declare()
-
     def observe(self, t: float, supported: bool, distance: float, tilt: float, acc: float) -> bool:
-        """`update` with the state's signals: whether a foot touches (`supported`), the capture
-        point's distance to the support (m; read only with support), the torso's tilt (deg) and the
-        accelerometer's norm (m/s^2)."""
+        """Feed every detector one control step's signals: whether a foot touches (`supported`), the
+        capture point's distance to the support (m; read only with support), the torso's tilt (deg)
+        and the accelerometer's norm (m/s^2). True once the fall is declared."""
         if supported:
             self.capture.observe(t, distance)
         self.tilt.observe(t, tilt)

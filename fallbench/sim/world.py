@@ -55,6 +55,7 @@ class World:
     root_body: int
     contact_bodies: list[str]  # body of each per-body contact sensor
     contact_found_columns: np.ndarray  # sensordata column of each one's "found" count
+    contact_found_index: slice | np.ndarray  # those columns as an index of the sensor rows (`found_columns`)
 
     def sensor(self, sensordata: np.ndarray, name: str) -> np.ndarray:
         s = self.sensors[name]
@@ -191,6 +192,7 @@ def _index(model: mujoco.MjModel, robot: RobotDescription) -> World:
         if name.startswith("contact:") and name != "contact:total":
             groups.setdefault(name.split(":")[1], []).append(name)
     body_sensors = [n for names in groups.values() for n in names]
+    found = np.array([sensors[n].start for n in body_sensors])
     return World(
         model=model,
         robot=robot,
@@ -207,7 +209,8 @@ def _index(model: mujoco.MjModel, robot: RobotDescription) -> World:
         torso_body=model.body(robot.torso_body).id,
         root_body=model.body(robot.root_body).id,
         contact_bodies=[n.split(":")[2] for n in body_sensors],
-        contact_found_columns=np.array([sensors[n].start for n in body_sensors]),
+        contact_found_columns=found,
+        contact_found_index=found_columns(found),
     )
 
 

@@ -138,7 +138,7 @@ class ReshapeController:
 
     def __init__(self, world: World, scenario: Scenario, params: dict[str, Any] | None = None) -> None:
         self.world, self.scenario = world, scenario
-        self.cfg = ReshapeConfig(**(params or {}))
+        self.config = ReshapeConfig(**(params or {}))
         self.P = pinocchio_for(world)
         robot = world.robot
         self.reach = reach_polyhedra(robot, self.P.model)
@@ -146,11 +146,11 @@ class ReshapeController:
         start = {**robot.postures[scenario.initial.posture], **scenario.initial.joints}
         start = {j: start.get(j, 0.0) for j in world.joint_names}
         self.postures = {}  # "front", "back" and "side" fall postures
-        front_bend = self.cfg.knee_bend if self.cfg.crouch_front else None
+        front_bend = self.config.knee_bend if self.config.crouch_front else None
         for kind, bend, elbow in (
             ("front", front_bend, 1.0),
-            ("back", self.cfg.knee_bend, self.cfg.elbow_back),
-            ("side", self.cfg.knee_bend_side, 1.0),
+            ("back", self.config.knee_bend, self.config.elbow_back),
+            ("side", self.config.knee_bend_side, 1.0),
         ):
             target = fall_posture(self.P.model, robot, start, bend, elbow)
             self.postures[kind] = PostureTask(
@@ -169,10 +169,12 @@ class ReshapeController:
         ]
         self.leg_v = np.array([self.P.model.joints[j].idx_v for j in leg_joints], dtype=int)
         self.legs = np.isin(self.P.actuated_v, self.leg_v)  # actuators of the legs
-        self.band = inner_range(world.joint_range, self.cfg.joint_limit_margin)  # rad
+        self.band = inner_range(world.joint_range, self.config.joint_limit_margin)  # rad
         lag = servo_lag(world.default_kp, world.default_kd)  # s
-        self.lag = lag if self.cfg.joint_limit_servo_lag else np.zeros(world.model.nu)
-        self.qp = make_solver(self.cfg.solver, self.cfg.eps_abs, self.cfg.max_iter, self.cfg.max_iter_in)
+        self.lag = lag if self.config.joint_limit_servo_lag else np.zeros(world.model.nu)
+        self.qp = make_solver(
+            self.config.solver, self.config.eps_abs, self.config.max_iter, self.config.max_iter_in
+        )
         self.direction: FallDirection | None = None
         self.q_ref = self.qd_ref = np.zeros(world.model.nu)
         self.landings: list[Landing] = []
@@ -212,17 +214,17 @@ class ReshapeController:
             self.landings.append(Landing(t, side, chosen))
             surface = chosen.surface
             landing = SurfacePositionTask(self.wrists[side], chosen.bip, surface.tangents).compute(state)
-            tasks.append(self._set_point(self.cfg.w_landing, self._select(landing)))
+            tasks.append(self._set_point(self.config.w_landing, self._select(landing)))
             pairs.append(SurfacePair(self.wrists[side], chosen.bip, surface.normal))
         if len(pairs) == 2:
             synchronised = RelativeDistanceTask(*pairs).compute(state)
-            tasks.append(self._set_point(self.cfg.w_relative_distance, self._select(synchronised)))
+            tasks.append(self._set_point(self.config.w_relative_distance, self._select(synchronised)))
         return tasks
 
     def step(self, t: float, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray) -> ServoCommand:
         """One control step before impact: references integrated from the QP's accelerations."""
         started = time.perf_counter()
-        world, cfg = self.world, self.cfg
+        world, config = self.world, self.config
         q, v = self.P.state(qpos, qvel)
         points = environment_contacts(world.model, data, self.scenario.friction)
         terms = model_terms(self.P, q, v, points, inertia=True, inverse=False)
@@ -233,11 +235,11 @@ class ReshapeController:
             world.torque_limit,
             world.joint_range,
             self.scenario.control_dt,
-            cfg.w_lambda,
-            cfg.w_qdd,
-            cfg.w_contact,
-            cfg.joint_limit_margin,
-            cfg.joint_limit_braking,
+            config.w_lambda,
+            config.w_qdd,
+            config.w_contact,
+            config.joint_limit_margin,
+            config.joint_limit_braking,
         )
         solving = time.perf_counter()
         status, solved, accelerations = solve_reshape(self.qp, problem)
@@ -254,7 +256,7 @@ class ReshapeController:
     def _tasks(self, t: float, data: mujoco.MjData, state: RobotState, points: ContactSet) -> list[SetPoint]:
         """The reshaping tasks of this step (see the module's docstring)."""
         assert self.direction is not None, "start() first"
-        world, cfg = self.world, self.cfg
+        world, config = self.world, self.config
         torso_rotation = world.robot.torso_frame(
             state.frame_placement(self.P.frame_id(world.robot.torso_body)).rotation
         )
@@ -265,7 +267,7 @@ class ReshapeController:
         orientation = VectorOrientationTask(
             world.robot.torso_body, world.robot.torso_axis("left"), lateral_target
         )
-        tasks = [self._set_point(cfg.w_orientation, orientation.compute(state))]
+        tasks = [self._set_point(config.w_orientation, orientation.compute(state))]
         support = points.positions.mean(axis=0) if len(points) else self._feet_on_ground(data)
         tasks += self._landing_tasks(
             t, state, direction, facing, torso_rotation, self._stick(data, state, support, direction)
@@ -274,16 +276,16 @@ class ReshapeController:
             tasks += self._hands_below_butt(data, state)
         elif len(self.knees) == 2:
             floor = [SurfacePair(knee, np.zeros(3), UP) for knee in self.knees]
-            tasks.append(self._set_point(cfg.w_knees_level, RelativeDistanceTask(*floor).compute(state)))
+            tasks.append(self._set_point(config.w_knees_level, RelativeDistanceTask(*floor).compute(state)))
         kind = "side" if self.classes[0] in ("left", "right") else facing
         posture = self.postures[kind].compute(state)
-        for rows, weight in ((~self.legs, cfg.w_posture), (self.legs, cfg.w_leg_posture)):
+        for rows, weight in ((~self.legs, config.w_posture), (self.legs, config.w_leg_posture)):
             tasks.append(self._set_point(weight, posture.select(rows)))
         return tasks
 
     def _set_point(self, weight: float, terms: TaskTerms) -> SetPoint:
         """A task in the cost, at the gains every reshaping task shares."""
-        return SetPoint(weight, terms, self.cfg.task_kp, self.cfg.task_kv)
+        return SetPoint(weight, terms, self.config.task_kp, self.config.task_kv)
 
     def _stick(
         self, data: mujoco.MjData, state: RobotState, support: np.ndarray, direction: np.ndarray
@@ -295,10 +297,10 @@ class ReshapeController:
         forward drops onto its knees and then turns about them, so the stick stands on the knee's
         ground projection with the knee-to-shoulder length (the shoulders are lowered by the knee's
         height). `knees_and_buttocks` adds the buttocks' lowest corner, for back falls."""
-        if self.cfg.pivot == "contacts":
+        if self.config.pivot == "contacts":
             return support, 0.0
         candidates = [knee.position(state) for knee in self.knees]
-        if self.cfg.pivot == "knees_and_buttocks":
+        if self.config.pivot == "knees_and_buttocks":
             candidates.append(self._butt_point(data))
         lead = max(candidates, key=lambda point: float(point @ direction))
         if float(lead @ direction) <= float(support @ direction):
@@ -313,10 +315,10 @@ class ReshapeController:
 
     def _hands_below_butt(self, data: mujoco.MjData, state: RobotState) -> list[SetPoint]:
         """000 Sec. IV-C: the wrists below the buttocks by `hands_below_butt`, along the vertical."""
-        target = np.array([0.0, 0.0, float(self._butt_point(data)[2]) - self.cfg.hands_below_butt])
+        target = np.array([0.0, 0.0, float(self._butt_point(data)[2]) - self.config.hands_below_butt])
         return [
             self._set_point(
-                self.cfg.w_hands_below_butt,
+                self.config.w_hands_below_butt,
                 self._select(PointTask(wrist, target, slice(2, 3)).compute(state)),
             )
             for wrist in self.wrists.values()
@@ -324,7 +326,7 @@ class ReshapeController:
 
     def _select(self, terms: TaskTerms) -> TaskTerms:
         """A task's terms without the leg columns of its Jacobian unless `landing_uses_legs`."""
-        if self.cfg.landing_uses_legs:
+        if self.config.landing_uses_legs:
             return terms
         jacobian = terms.jacobian.copy()
         jacobian[:, self.leg_v] = 0.0

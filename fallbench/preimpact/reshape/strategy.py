@@ -42,7 +42,7 @@ class ReshapeStrategy(Strategy):
     def __init__(self, world: World, scenario: Scenario) -> None:
         super().__init__(world, scenario)
         self.controller = ReshapeController(world, scenario, scenario.policy_params.get(self.name))
-        self.start_margin = self.controller.cfg.start_margin
+        self.start_margin = self.controller.config.start_margin
 
     def start(self, t: float, data: mujoco.MjData) -> None:
         self.controller.start(

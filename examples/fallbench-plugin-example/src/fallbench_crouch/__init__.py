@@ -25,10 +25,16 @@ class CrouchStrategy(Strategy):
 
     def step(self, t: float, data: mujoco.MjData) -> ServoCommand | None:
         dt = self.scenario.control_dt
-        step = np.clip(self.params["knee_bend"] - self.q_ref[self.knees], -self.params["speed"] * dt, self.params["speed"] * dt)
+        step = np.clip(
+            self.params["knee_bend"] - self.q_ref[self.knees],
+            -self.params["speed"] * dt,
+            self.params["speed"] * dt,
+        )
         self.q_ref = self.q_ref.copy()
         self.q_ref[self.knees] += step
-        return ServoCommand(self.world.default_kp, self.world.default_kd, self.q_ref, np.zeros_like(self.q_ref))
+        return ServoCommand(
+            self.world.default_kp, self.world.default_kd, self.q_ref, np.zeros_like(self.q_ref)
+        )
 
     def metrics(self, recording: Any) -> dict[str, Any]:
         """How far the knee references moved before impact (rad)."""
