@@ -105,6 +105,7 @@ class ReshapeConfig:
     # its motor's torque limit, over the joint's own inertia, can stop before the end (a viability
     # bound; the 20 ms horizon alone lets a fast joint arrive faster than its motor can brake).
     joint_limit_braking: float = 0.0  # fraction of torque limit / H_kk
+    reference_lead: float = 0.0  # x torque limit / kp: the servo reference's lead on the joint; 0: unbounded
     pivot: Literal["contacts", "knees", "knees_and_buttocks"] = (
         "contacts"  # the landing search's stick, see _stick
     )
@@ -247,9 +248,14 @@ class ReshapeController:
         qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
-        self.q_ref, self.qd_ref = bounded_reference(
-            self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2, self.qd_ref + qdd * dt, self.band, self.lag
-        )
+        q_ref = self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2
+        if config.reference_lead:
+            # anti-windup: beyond torque limit / kp from the joint the servo saturates anyway, and a
+            # reference integrated further ahead only swings the joint past it once it catches up
+            lead = config.reference_lead * world.torque_limit / world.default_kp
+            measured = qpos[world.qpos_adr]
+            q_ref = np.clip(q_ref, measured - lead, measured + lead)
+        self.q_ref, self.qd_ref = bounded_reference(q_ref, self.qd_ref + qdd * dt, self.band, self.lag)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
 
