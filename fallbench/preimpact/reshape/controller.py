@@ -125,6 +125,8 @@ class ReshapeConfig:
             raise ValueError(f"reshape: joint_limit_margin must be >= 0, not {self.joint_limit_margin}")
         if self.joint_limit_braking < 0.0:
             raise ValueError(f"reshape: joint_limit_braking must be >= 0, not {self.joint_limit_braking}")
+        if self.reference_lead < 0.0:
+            raise ValueError(f"reshape: reference_lead must be >= 0, not {self.reference_lead}")
 
 
 @dataclass
