@@ -32,7 +32,9 @@ class JointLimit(Limit):
     horizon: float  # s
     margin: float = 0.0  # rad kept from each end of the range
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s, per actuator; empty: 0
-    braking: np.ndarray = field(default_factory=lambda: np.zeros(0))  # rad/s^2, per actuator; empty or 0: none
+    braking: np.ndarray = field(
+        default_factory=lambda: np.zeros(0)
+    )  # rad/s^2, per actuator; empty or 0: none
 
     def compute(self, state: RobotState) -> LimitRows:
         """Bounds on q_ddot (rad/s^2, all nv entries) that keep every actuated joint's servo rest
@@ -135,7 +137,9 @@ def braking_bounds(
     real, the bound that stops the joint at once (-v / h - b / 2)."""
 
     def largest(gap: np.ndarray, speed: np.ndarray) -> np.ndarray:
-        discriminant = 4 * speed * horizon * braking + (braking * horizon) ** 2 + 8 * braking * (gap - speed * horizon)
+        discriminant = (
+            4 * speed * horizon * braking + (braking * horizon) ** 2 + 8 * braking * (gap - speed * horizon)
+        )
         root = np.sqrt(np.maximum(discriminant, 0.0))
         return np.clip((root - 2 * speed - braking * horizon) / (2 * horizon), -QDD_BOUND, QDD_BOUND)
 

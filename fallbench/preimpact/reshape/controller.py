@@ -105,6 +105,9 @@ class ReshapeConfig:
     # its motor's torque limit, over the joint's own inertia, can stop before the end (a viability
     # bound; the 20 ms horizon alone lets a fast joint arrive faster than its motor can brake).
     joint_limit_braking: float = 0.0  # fraction of torque limit / H_kk
+    # 000 Sec. IV-A pulls the hands up so that the wrists land first; how far is open: the wrist
+    # pitch's target as a fraction of its range toward the hand-up end
+    wrist_bend: float = 0.8
     reference_lead: float = 0.0  # x torque limit / kp: the servo reference's lead on the joint; 0: unbounded
     pivot: Literal["contacts", "knees", "knees_and_buttocks"] = (
         "contacts"  # the landing search's stick, see _stick
@@ -155,7 +158,7 @@ class ReshapeController:
             ("back", self.config.knee_bend, self.config.elbow_back),
             ("side", self.config.knee_bend_side, 1.0),
         ):
-            target = fall_posture(self.P.model, robot, start, bend, elbow)
+            target = fall_posture(self.P.model, robot, start, bend, elbow, self.config.wrist_bend)
             self.postures[kind] = PostureTask(
                 np.array([target[j] for j in world.joint_names]), self.P.actuated_v, self.P.model.nv
             )
