@@ -26,7 +26,9 @@ def _forward_push(reshape: dict[str, float]) -> Scenario:
     (point,) = [
         p
         for p in load_scenario_file(PUSH)
-        if p.scenario.name == "push_200N" and p.scenario.robot == "talos" and p.swept.get("push.direction") == 0
+        if p.scenario.name == "push_200N"
+        and p.scenario.robot == "talos"
+        and p.swept.get("push.direction") == 0
     ]
     params = {**point.scenario.policy_params, "reshape": reshape}
     return point.scenario.model_copy(update={"duration": 1.3, "policy_params": params})

@@ -108,7 +108,10 @@ class ReshapeConfig:
     # 000 Sec. IV-A pulls the hands up so that the wrists land first; how far is open: the wrist
     # pitch's target as a fraction of its range toward the hand-up end
     wrist_bend: float = 0.8
-    reference_lead: float = 0.0  # x torque limit / kp: the servo reference's lead on the joint; 0: unbounded
+    # Off by default (anti-windup): the servo reference's lead on its joint bounded to this many
+    # torque limit / kp (rad), the lead at which the servo saturates anyway; 0: unbounded, the
+    # reference integrated from the QP's accelerations alone
+    reference_lead: float = 0.0
     pivot: Literal["contacts", "knees", "knees_and_buttocks"] = (
         "contacts"  # the landing search's stick, see _stick
     )
@@ -128,6 +131,8 @@ class ReshapeConfig:
             raise ValueError(f"reshape: joint_limit_margin must be >= 0, not {self.joint_limit_margin}")
         if self.joint_limit_braking < 0.0:
             raise ValueError(f"reshape: joint_limit_braking must be >= 0, not {self.joint_limit_braking}")
+        if not 0.0 <= self.wrist_bend <= 1.0:
+            raise ValueError(f"reshape: wrist_bend must be in [0, 1], not {self.wrist_bend}")
         if self.reference_lead < 0.0:
             raise ValueError(f"reshape: reference_lead must be >= 0, not {self.reference_lead}")
 
