@@ -117,6 +117,42 @@ def test_a_servo_lag_slows_a_joint_heading_for_its_range_end(robot: PinocchioMod
     np.testing.assert_allclose(travel + lag * rate, 0.1)
 
 
+def test_braking_leaves_a_joint_the_distance_its_motor_needs_to_stop(robot: PinocchioModel) -> None:
+    """With a braking deceleration b, the fastest a joint may leave the horizon toward a range end
+    is the speed b stops exactly at the end: v_h^2 = 2 b (end - q_h), both ends, from random
+    states; without braking, a joint 0.1 rad short at 4 rad/s may keep its speed, with b = 50
+    rad/s^2 (stops from 3.2 rad/s) it must slow down; a joint at rest in the middle is not
+    bounded by it."""
+    joint_range, horizon = _talos_range(robot), 0.02
+    rng, braking = np.random.default_rng(5), np.full(len(joint_range), 50.0)
+    for _ in range(30):
+        q, v = _random_state(robot, joint_range, rng)
+        rows = JointLimit(joint_range, horizon, braking=braking).compute(RobotState.measure(robot, q, v))
+        assert np.all(rows.lower <= rows.upper)
+        (low_q, low_v), (high_q, high_v) = _joint_end(rows, robot, q, v, horizon)
+        upward = (high_v > 0) & (rows.upper[robot.actuated_v] < QDD_BOUND)
+        room = joint_range[:, 1] - high_q
+        stoppable = high_v**2 <= 2 * braking * np.maximum(room, 0.0) + 1e-9
+        assert np.all(stoppable | ~upward | (room < 0))  # (room < 0: the range bound held instead)
+        assert np.all(
+            (low_v >= 0) | (low_v**2 <= 2 * braking * np.maximum(low_q - joint_range[:, 0], 0.0) + 1e-9)
+        )
+    q, v = pin.neutral(robot.model), np.zeros(robot.model.nv)
+    q[robot.actuated_v + 1] = joint_range.mean(axis=1)
+    k = robot.actuated_v[0]
+    q[k + 1], v[k] = joint_range[0, 1] - 0.1, 4.0
+    state = RobotState.measure(robot, q, v)
+    free, braked = (
+        JointLimit(joint_range, horizon).compute(state),
+        JointLimit(joint_range, horizon, braking=braking).compute(state),
+    )
+    assert free.upper[k] > 0.0 and braked.upper[k] < 0.0
+    position, rate = 0.1 - 4.0 * horizon - braked.upper[k] * horizon**2 / 2, 4.0 + braked.upper[k] * horizon
+    np.testing.assert_allclose(rate**2, 2 * 50.0 * position)
+    middle = robot.actuated_v[1]
+    assert 0.0 < braked.upper[middle] < free.upper[middle] and free.lower[middle] < braked.lower[middle] < 0.0
+
+
 def test_a_range_narrower_than_two_margins_shrinks_to_its_middle() -> None:
     band = inner_range(np.array([[0.0, 0.06], [-1.0, 1.0]]), 0.05)
     np.testing.assert_allclose(band, [[0.03, 0.03], [-0.95, 0.95]])

@@ -298,14 +298,9 @@ class SignalLog:
     def watching(self) -> bool:
         return self.body_contact_time is None
 
-    def update(
-        self, t: float, distance: float, torso_rotation: np.ndarray, imu_acc: np.ndarray, body_touching: bool
-    ) -> None:
-        """One control step: `distance` as `capture_point_distance` gives it (m, NaN without support)."""
-        self.log(t, distance, tilt_deg(torso_rotation), acc_norm(imu_acc), body_touching)
-
     def log(self, t: float, distance: float, tilt: float, acc: float, body_touching: bool) -> None:
-        """`update` with the tilt (deg, `tilt_deg`) and the accelerometer's norm (m/s^2, `acc_norm`)."""
+        """One control step: the capture point's distance as `capture_point_distance` gives it (m,
+        NaN without support), the tilt (deg, `tilt_deg`), the accelerometer's norm (m/s^2, `acc_norm`)."""
         if not self.watching:
             return
         if body_touching:

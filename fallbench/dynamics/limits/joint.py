@@ -21,22 +21,48 @@ class JointLimit(Limit):
     end of the horizon, if q_ddot is held over it. A PD servo K (q_ref - q) + B (qd_ref - q_dot) at
     rest settles at q_ref + (B / K) qd_ref: with lag = B / K (s) a joint heading for a range end is
     slowed to at most (distance to it) / lag, so that the servo does not carry it past (a velocity
-    bound near the ends only). margin 0 and lag 0: the range itself, reached exactly."""
+    bound near the ends only). margin 0 and lag 0: the range itself, reached exactly.
+
+    With a braking deceleration b (rad/s^2, per actuator) the joint's speed toward a range end at
+    the end of the horizon is also held to what b can stop within the distance left,
+    v_h^2 <= 2 b (end - q_h) (a viability bound): a 20 ms horizon alone lets a fast joint reach its
+    end with more speed than its motor can take out, and the servo overshoots."""
 
     joint_range: np.ndarray  # (actuators, 2) rad, per actuator (MuJoCo order)
     horizon: float  # s
     margin: float = 0.0  # rad kept from each end of the range
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s, per actuator; empty: 0
+    braking: np.ndarray = field(
+        default_factory=lambda: np.zeros(0)
+    )  # rad/s^2, per actuator; empty or 0: none
 
     def compute(self, state: RobotState) -> LimitRows:
         """Bounds on q_ddot (rad/s^2, all nv entries) that keep every actuated joint's servo rest
         point within its range less the margin over the horizon (`joint_acceleration_bounds`)."""
         lag = self.lag if len(self.lag) else np.zeros(len(self.joint_range))
+        braking = self.braking if len(self.braking) else np.zeros(len(self.joint_range))
         band = reachable_band(self.joint_range, self.margin, state.q[state.robot.actuated_v + 1])
         lower, upper = joint_acceleration_bounds(
             state.q, state.v, state.robot.actuated_v, band, self.horizon, lag
         )
+        if braking.any():
+            lower, upper = self._brake(state, band, braking, lower, upper)
         return LimitRows.bounds(Space.ACCELERATION, lower, upper)
+
+    def _brake(
+        self, state: RobotState, band: np.ndarray, braking: np.ndarray, lower: np.ndarray, upper: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds narrowed by `braking_bounds` on the joints with braking > 0, where the two
+        intervals meet (the range's alone where they do not)."""
+        joints = state.robot.actuated_v
+        position, rate = state.q[joints + 1], state.v[joints]
+        distance = np.column_stack([position - band[:, 0], band[:, 1] - position])
+        slow, fast = braking_bounds(distance, rate, self.horizon, braking)
+        low, high = np.maximum(lower[joints], slow), np.minimum(upper[joints], fast)
+        keep = (braking > 0.0) & (low <= high)
+        lower, upper = lower.copy(), upper.copy()
+        lower[joints[keep]], upper[joints[keep]] = low[keep], high[keep]
+        return lower, upper
 
 
 def inner_range(joint_range: np.ndarray, margin: float) -> np.ndarray:
@@ -99,3 +125,22 @@ def joint_acceleration_bounds(
         second = min(max(2 * (joint_range[k, 1] - position - rate * reach) / gain, -QDD_BOUND), QDD_BOUND)
         low[i], high[i] = min(first, second), max(first, second)
     return low, high
+
+
+def braking_bounds(
+    distance: np.ndarray, rate: np.ndarray, horizon: float, braking: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """q_ddot bounds (rad/s^2, per joint) held over the horizon h (s) after which each joint, at
+    distance[:, 0] (rad) above its lower end and distance[:, 1] below its upper end, moving at rate
+    (rad/s), can still stop before either end decelerating at braking (rad/s^2): the roots of
+    v_h^2 = 2 b (d - v h - q_ddot h^2 / 2) with v_h = v + q_ddot h toward that end; where no root is
+    real, the bound that stops the joint at once (-v / h - b / 2)."""
+
+    def largest(gap: np.ndarray, speed: np.ndarray) -> np.ndarray:
+        discriminant = (
+            4 * speed * horizon * braking + (braking * horizon) ** 2 + 8 * braking * (gap - speed * horizon)
+        )
+        root = np.sqrt(np.maximum(discriminant, 0.0))
+        return np.clip((root - 2 * speed - braking * horizon) / (2 * horizon), -QDD_BOUND, QDD_BOUND)
+
+    return -largest(distance[:, 0], -rate), largest(distance[:, 1], rate)

@@ -101,6 +101,17 @@ class ReshapeConfig:
     # The servo reference's velocity is cut so that the PD's rest point q_ref + (B / K) qd_ref stays
     # inside the range less the margin: a reference held on a range end carries no velocity past it.
     joint_limit_servo_lag: bool = False
+    # Off by default: the QP holds each joint's speed toward a range end to what this fraction of
+    # its motor's torque limit, over the joint's own inertia, can stop before the end (a viability
+    # bound; the 20 ms horizon alone lets a fast joint arrive faster than its motor can brake).
+    joint_limit_braking: float = 0.0  # fraction of torque limit / H_kk
+    # 000 Sec. IV-A pulls the hands up so that the wrists land first; how far is open: the wrist
+    # pitch's target as a fraction of its range toward the hand-up end
+    wrist_bend: float = 0.8
+    # Off by default (anti-windup): the servo reference's lead on its joint bounded to this many
+    # torque limit / kp (rad), the lead at which the servo saturates anyway; 0: unbounded, the
+    # reference integrated from the QP's accelerations alone
+    reference_lead: float = 0.0
     pivot: Literal["contacts", "knees", "knees_and_buttocks"] = (
         "contacts"  # the landing search's stick, see _stick
     )
@@ -118,6 +129,12 @@ class ReshapeConfig:
             raise ValueError(f"reshape: elbow_back must be in [0, 1], not {self.elbow_back}")
         if self.joint_limit_margin < 0.0:
             raise ValueError(f"reshape: joint_limit_margin must be >= 0, not {self.joint_limit_margin}")
+        if self.joint_limit_braking < 0.0:
+            raise ValueError(f"reshape: joint_limit_braking must be >= 0, not {self.joint_limit_braking}")
+        if not 0.0 <= self.wrist_bend <= 1.0:
+            raise ValueError(f"reshape: wrist_bend must be in [0, 1], not {self.wrist_bend}")
+        if self.reference_lead < 0.0:
+            raise ValueError(f"reshape: reference_lead must be >= 0, not {self.reference_lead}")
 
 
 @dataclass
@@ -146,7 +163,7 @@ class ReshapeController:
             ("back", self.config.knee_bend, self.config.elbow_back),
             ("side", self.config.knee_bend_side, 1.0),
         ):
-            target = fall_posture(self.P.model, robot, start, bend, elbow)
+            target = fall_posture(self.P.model, robot, start, bend, elbow, self.config.wrist_bend)
             self.postures[kind] = PostureTask(
                 np.array([target[j] for j in world.joint_names]), self.P.actuated_v, self.P.model.nv
             )
@@ -233,6 +250,7 @@ class ReshapeController:
             config.w_qdd,
             config.w_contact,
             config.joint_limit_margin,
+            config.joint_limit_braking,
         )
         solving = time.perf_counter()
         status, solved, accelerations = solve_reshape(self.qp, problem)
@@ -240,9 +258,14 @@ class ReshapeController:
         qdd = accelerations[self.P.actuated_v] if accelerations is not None else np.zeros(world.model.nu)
         self.failures += not solved
         dt = self.scenario.control_dt
-        self.q_ref, self.qd_ref = bounded_reference(
-            self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2, self.qd_ref + qdd * dt, self.band, self.lag
-        )
+        q_ref = self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2
+        if config.reference_lead:
+            # anti-windup: beyond torque limit / kp from the joint the servo saturates anyway, and a
+            # reference integrated further ahead only swings the joint past it once it catches up
+            lead = config.reference_lead * world.torque_limit / world.default_kp
+            measured = qpos[world.qpos_adr]
+            q_ref = np.clip(q_ref, measured - lead, measured + lead)
+        self.q_ref, self.qd_ref = bounded_reference(q_ref, self.qd_ref + qdd * dt, self.band, self.lag)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)
 

@@ -12,8 +12,6 @@ import pinocchio as pin
 
 from fallbench.robots.description import RobotDescription
 
-WRIST_BEND_FRACTION = 0.8  # of the wrist pitch range toward the hand-up side
-
 
 def elbow_angle_max_manipulability(low: float, high: float) -> float:
     """Elbow angle in [low, high] maximising the 2-link arm's manipulability w = l1 l2 |sin(theta)|."""
@@ -21,14 +19,15 @@ def elbow_angle_max_manipulability(low: float, high: float) -> float:
     return float(angles[np.argmax(np.abs(np.sin(angles)))])
 
 
-def wrist_up_angle(model: pin.Model, q: np.ndarray, joint: str, hand_frame: str) -> float:
-    """The wrist pitch, near one end of its range, that puts the hand highest in posture q."""
+def wrist_up_angle(model: pin.Model, q: np.ndarray, joint: str, hand_frame: str, bend: float) -> float:
+    """The wrist pitch, `bend` (0-1) of the way from 0 to one end of its range, that puts the hand
+    highest in posture q."""
     data = model.createData()
     index = model.joints[model.getJointId(joint)].idx_q
     best, best_height = 0.0, -np.inf
     for bound in (model.lowerPositionLimit[index], model.upperPositionLimit[index]):
         trial = q.copy()
-        trial[index] = WRIST_BEND_FRACTION * bound
+        trial[index] = bend * bound
         pin.framesForwardKinematics(model, data, trial)
         height = data.oMf[model.getFrameId(hand_frame)].translation[2]
         if height > best_height:
@@ -42,9 +41,11 @@ def fall_posture(
     start: dict[str, float],
     knee_bend: float | None,
     elbow_fraction: float = 1.0,
+    wrist_bend: float = 0.8,
 ) -> dict[str, float]:
     """Joint name -> target angle (rad) for every joint in `start`. `knee_bend` None keeps the
-    legs' starting angles; `elbow_fraction` scales the elbow's angle of highest manipulability."""
+    legs' starting angles; `elbow_fraction` scales the elbow's angle of highest manipulability;
+    `wrist_bend` is the hand-up wrist pitch's fraction of its range (`wrist_up_angle`)."""
     target = dict(start)
     legs = (
         zip(*(robot.leg_pitch_joints[k] for k in ("hip", "knee", "ankle"))) if knee_bend is not None else ()
@@ -61,5 +62,7 @@ def fall_posture(
     for name, value in target.items():
         q[model.joints[model.getJointId(name)].idx_q] = value
     for arm in robot.arms.values():
-        target[arm.wrist_pitch_joint] = wrist_up_angle(model, q, arm.wrist_pitch_joint, arm.hand_frame)
+        target[arm.wrist_pitch_joint] = wrist_up_angle(
+            model, q, arm.wrist_pitch_joint, arm.hand_frame, wrist_bend
+        )
     return target

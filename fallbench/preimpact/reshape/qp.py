@@ -50,9 +50,12 @@ def build_reshape_problem(
     w_qdd: float,
     w_contact: float,
     joint_margin: float,
+    joint_braking: float = 0.0,
 ) -> ReshapeProblem:
     """torque_limit and joint_range per actuator (MuJoCo order), dt the control period (s), the
-    joints kept joint_margin (rad) inside their ranges."""
+    joints kept joint_margin (rad) inside their ranges; with joint_braking > 0 each joint's speed
+    toward a range end held to what joint_braking x its motor's torque limit over its own inertia
+    (H_kk, rad/s^2) can stop before it."""
     state = terms.state
     nv = state.model.nv
     assert terms.H is not None, "model_terms(..., inertia=True)"
@@ -69,7 +72,8 @@ def build_reshape_problem(
     qp.equal(base_rows, base_values)
     qp.limit(TorqueLimit(torque_limit).compute(state))
     horizon = LIMIT_HORIZON_STEPS * dt
-    qp.limit(JointLimit(joint_range, horizon, joint_margin).compute(state))
+    braking = joint_braking * torque_limit / np.diag(terms.H)[state.robot.actuated_v]
+    qp.limit(JointLimit(joint_range, horizon, joint_margin, braking=braking).compute(state))
     qp.bound(lam, 0.0, np.inf)
 
     costs = list(tasks)
