@@ -250,6 +250,35 @@ def test_an_arm_clearly_worse_than_none_stiff_on_falls_is_never_the_winner() -> 
     )
 
 
+def test_an_arm_that_makes_the_robot_fall_where_it_survives_is_never_the_winner() -> None:
+    """reshape + stiff is gentler on every force and falls in 3 of the 7 pairs none + stiff
+    survives, never survives where it falls: the interval of its change in `fell` reaches 0
+    (not clearly worse), yet the verdict passes over it and says why; 1 fall made of 30 survived
+    (3 %) is within the 5 % allowed."""
+    forces = {"imu_peak_z": 100, "contact_force_peak_head": 1000, "contact_force_peak_torso": 800}
+    gentle = {key: value / 2 for key, value in forces.items()}
+    runs = _arms_family({("none", "stiff"): forces, ("reshape", "stiff"): gentle}, points=16)
+    reference = (runs.pre_impact == "none").to_numpy()
+    runs.loc[reference, "fell"] = [k < 9 for k in range(16)]
+    runs.loc[~reference, "fell"] = [k < 12 for k in range(16)]
+    done = ranked(runs)
+    assert (done.table.pre_impact[0], done.table.policy[0]) == ("reshape", "stiff")
+    assert done.harm[("reshape", "stiff")][0].evidence.startswith("made the robot fall in 3 of the 7 runs")
+    assert done.table["clearly worse than none + stiff on"][0] == "made to fall (3 of 7)"
+    line = verdict(runs)
+    assert line.startswith("least damage: none + stiff (mean rank")
+    assert (
+        "; reshape + stiff ranks higher but made the robot fall in 3 of the 7 runs none + stiff survives"
+        in line
+    )
+
+    runs = _arms_family({("none", "stiff"): forces, ("reshape", "stiff"): gentle}, points=40)
+    reference = (runs.pre_impact == "none").to_numpy()
+    runs.loc[reference, "fell"] = [k < 10 for k in range(40)]
+    runs.loc[~reference, "fell"] = [k < 11 for k in range(40)]
+    assert verdict(runs).startswith("least damage: reshape + stiff")
+
+
 def test_arms_with_the_same_falls_pair_by_pair_are_one_row() -> None:
     """A strategy that chose to do nothing is its policy without it: one row, never a winner by
     row order."""

@@ -22,6 +22,21 @@ DAMAGE_MEASURES = (
     Measure("fell", "fell (fraction)", statistic="mean", change="mean"),
 )
 FALLBACKS = {"imu_peak_z_landing": ("imu_peak_z", "IMU z peak, whole run (m/s²)")}
+# A protective arm may make the robot fall in at most this share of the runs none + stiff survives
+# (issue "do no harm"); above it the verdict never names the arm, whatever its interval says.
+INDUCED_FALL_LIMIT = 0.05
+
+
+@dataclass(frozen=True)
+class Harm:
+    """Why the verdict passes over an arm: `label` for the ranking's column, `evidence` the
+    numbers the verdict gives."""
+
+    label: str
+    evidence: str
+    interval: (
+        bool  # a paired change clearly worse ("clearly worse than none + stiff on ..."), else induced falls
+    )
 
 
 def measures_for(runs: pd.DataFrame) -> list[Measure]:
@@ -80,7 +95,7 @@ class Ranked:
     estimates: dict[Arm, dict[str, Estimate]]
     measures: list[Measure]
     same: dict[Arm, list[Arm]]  # a row's arm -> the other arms with the same falls
-    harm: dict[Arm, list[tuple[str, Estimate]]]  # arm -> (measure label, paired change) clearly worse
+    harm: dict[Arm, list[Harm]]  # arm -> why the verdict never names it (empty: it may)
 
 
 def ranked(runs: pd.DataFrame) -> Ranked:
@@ -106,7 +121,7 @@ def ranked(runs: pd.DataFrame) -> Ranked:
             "policy": arm[1],
             "mean rank": round(float(ranks.loc[arm].mean()), 2),
             "runs": max(e.n for e in per_measure.values()),
-            "clearly worse than none + stiff on": ", ".join(label for label, _ in harm[arm]),
+            "clearly worse than none + stiff on": ", ".join(h.label for h in harm[arm]),
         }
         row.update({m.label: per_measure[m.column].format() for m in found})
         if any(same.values()):
@@ -116,8 +131,9 @@ def ranked(runs: pd.DataFrame) -> Ranked:
     return Ranked(ranking, table, found, same, harm)
 
 
-def _harm(indexed: paired.ArmRuns, arm: Arm, harm_measures: list[Measure]) -> list[tuple[str, Estimate]]:
-    """The harm measures on which the arm's paired change against `none` + `stiff` is clearly worse."""
+def _harm(indexed: paired.ArmRuns, arm: Arm, harm_measures: list[Measure]) -> list[Harm]:
+    """The harm measures on which the arm's paired change against `none` + `stiff` is clearly
+    worse, and falls it made in more than INDUCED_FALL_LIMIT of the runs `none` + `stiff` survives."""
     if arm == paired.REFERENCE:
         return []
     worse = []
@@ -125,8 +141,24 @@ def _harm(indexed: paired.ArmRuns, arm: Arm, harm_measures: list[Measure]) -> li
     for measure in harm_measures:
         estimate = bootstrap(paired.change(pair_rows, measure.column), measure.change)
         if paired.clearly_worse(estimate, measure.lower_is_better):
-            worse.append((measure.label.split(" (")[0], estimate))
+            label = measure.label.split(" (")[0]
+            worse.append(Harm(label, f"{label} (paired change {estimate.format()})", interval=True))
+    if "fell" in pair_rows and not any(h.label == "fell" for h in worse):
+        worse.extend(_induced_falls(pair_rows))
     return worse
+
+
+def _induced_falls(pair_rows: pd.DataFrame) -> list[Harm]:
+    """A `Harm` when the arm fell in more than INDUCED_FALL_LIMIT of the pairs whose `none` + `stiff`
+    run did not fall (a fall it made, however few pairs: the interval alone would let 3 of 7 pass)."""
+    ours = pair_rows["fell"].to_numpy(dtype=float)
+    reference = pair_rows["fell:reference"].to_numpy(dtype=float)
+    survived = reference == 0
+    made = int(((ours == 1) & survived).sum())
+    if not survived.any() or made <= INDUCED_FALL_LIMIT * survived.sum():
+        return []
+    evidence = f"made the robot fall in {made} of the {int(survived.sum())} runs none + stiff survives"
+    return [Harm(f"made to fall ({made} of {int(survived.sum())})", evidence, interval=False)]
 
 
 def _same_note(ok: pd.DataFrame, arm: Arm, other: Arm) -> str:
@@ -162,8 +194,9 @@ def row_name(done: Ranked, arm: Arm) -> str:
 
 
 def best_arms(done: Ranked) -> list[Arm]:
-    """The rows of the best mean rank among those not clearly worse than `none` + `stiff` on a
-    harm measure: one is the verdict's named arm, more are a tie."""
+    """The rows of the best mean rank among those without a `Harm` (clearly worse than `none` +
+    `stiff` on a harm measure, or falls made where it survives): one is the verdict's named arm,
+    more are a tie."""
     table = done.table
     arms = [a for a in zip(table.pre_impact, table.policy) if not done.harm[a]] if len(table) else []
     rank = dict(zip(zip(table.pre_impact, table.policy), table["mean rank"])) if arms else {}
@@ -172,8 +205,8 @@ def best_arms(done: Ranked) -> list[Arm]:
 
 def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
     """One line that follows from the ranking beside it (docs/report.md, "The verdict"): the arm of
-    the best mean rank among those not clearly worse than `none` + `stiff` on a harm measure, and
-    the measures on which it is clearly better than the runner-up; a tie is called a tie."""
+    the best mean rank among those without a `Harm` against `none` + `stiff`, and the measures on
+    which it is clearly better than the runner-up; a tie is called a tie."""
     done = done or ranked(runs)
     table = done.table
     if len(table) == 0:
@@ -184,7 +217,10 @@ def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
     eligible = [arm for arm in arms if not done.harm[arm]]
     tied = best_arms(done)
     if not tied:
-        return "no arm named: every one is clearly worse than none + stiff on a harm measure"
+        return (
+            "no arm named: every one is clearly worse than none + stiff on a harm measure or made the"
+            " robot fall where it survives"
+        )
     rank = dict(zip(arms, table["mean rank"]))
     best = tied[0]
     left_out = _left_out(done, arms[: arms.index(best)])
@@ -202,17 +238,21 @@ def verdict(runs: pd.DataFrame, done: Ranked | None = None) -> str:
     if runs_of_best < 2:
         return line + "; one run each, so no interval: a ranking of single falls, not of distributions"
     if len(eligible) == 1:
-        return line + "; every other arm is clearly worse than none + stiff on fell or vulnerable parts hit"
+        return line + (
+            "; every other arm is clearly worse than none + stiff on fell or vulnerable parts hit, or made"
+            " the robot fall where it survives"
+        )
     return line + _against_runner_up(done, best, eligible[1])
 
 
 def _left_out(done: Ranked, above: list[Arm]) -> str:
     """Why the arms ranked above the named one are not named."""
-    notes = [
-        f"{row_name(done, arm)} ranks higher but is clearly worse than none + stiff on "
-        + ", ".join(f"{label} (paired change {estimate.format()})" for label, estimate in done.harm[arm])
-        for arm in above
-    ]
+    notes = []
+    for arm in above:
+        worse = [h.evidence for h in done.harm[arm] if h.interval]
+        reasons = [f"is clearly worse than none + stiff on {', '.join(worse)}"] if worse else []
+        reasons += [h.evidence for h in done.harm[arm] if not h.interval]
+        notes.append(f"{row_name(done, arm)} ranks higher but " + " and ".join(reasons))
     return "".join(f"; {note}" for note in notes)
 
 
