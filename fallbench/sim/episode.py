@@ -6,7 +6,9 @@ actuators. Everything the metrics need is recorded at the physics rate from MuJo
 (computed in C inside the step).
 
 Impacts switch the motors to the gain policy on the takeover schedule (`takeover.py`: all at the
-first impact, or per chain). Contacts the strategy planned (a footstep) are not impacts. A
+first impact, or per chain). Contacts the strategy planned (a footstep) are not impacts, nor,
+before the first impact, is a foot set down while a foot of the other leg touches (a step: the foot
+joins the support; in a drop no foot touches, and the first foot down is the impact). A
 whole-fall controller (`hands_over` False, a learned fall policy) never hands its motors over: it
 commands them from fall detection to the episode's end, and impacts are only logged.
 
@@ -30,7 +32,7 @@ import numpy as np
 from fallbench.scenario import Scenario
 from fallbench.sim.controllers import Observation, PostImpactController, PreImpactController
 from fallbench.sim.events import FallWatch, ImpactDetector, SignalLog, make_fall_detector
-from fallbench.sim.impacts import ImpactLog
+from fallbench.sim.impacts import ImpactLog, body_sides
 from fallbench.sim.push import PushForce
 from fallbench.sim.recorder import Recording, Trace
 from fallbench.sim.rest import DivergenceWatch, RestWatch
@@ -86,7 +88,10 @@ class Episode:
         detection = scenario.detection
         self.watch = FallWatch(detection.hand_back_margin, detection.tilt, detection.hand_back_hold)
         feet = world.robot.body_groups.get("feet", ())
-        self.not_feet = ~np.isin(world.contact_bodies, list(feet))  # contact bodies whose touch is an impact
+        self.feet = np.isin(world.contact_bodies, list(feet))
+        self.not_feet = ~self.feet  # contact bodies whose touch is an impact
+        sides = body_sides(world)
+        self.sides = [sides.get(body, "") for body in world.contact_bodies]  # the leg a foot hangs from
         self.found_columns = columns = world.contact_found_index
         # MjData's "found" columns (or its whole sensor row), a view: while none is nonzero, no
         # contact body touches
@@ -253,6 +258,10 @@ class Episode:
             fresh &= self.unplanned
         if not np.count_nonzero(fresh):
             return
+        if self.impact.time is None:  # before the first impact, a foot set down beside another is a step
+            fresh = self.without_steps(found, fresh)
+            if not np.count_nonzero(fresh):
+                return
         self.seen |= fresh
         new, touched = self.names(fresh), self.first_sampled(fresh)
         first = self.impact.time is None
@@ -261,6 +270,21 @@ class Episode:
         if self.impact.time is None or self.takeover.all_switched or not self.strategy.hands_over:
             return  # a whole-fall controller (`hands_over` False) keeps its motors
         self.takeover.schedule(touched, new, first)
+
+    def without_steps(self, found: np.ndarray, fresh: np.ndarray) -> np.ndarray:
+        """`fresh` less the steps: a foot touching down while a foot of another leg touches (the
+        robot rocked onto one foot setting the other down) joins the support, as the capture point
+        and the hand-back watch already take it; it is no impact (no takeover, not the first
+        impact, not in the impact log). In a drop no foot touches: the first foot down is the impact."""
+        landing = fresh & self.feet
+        if not np.count_nonzero(landing):
+            return fresh
+        legs = {self.sides[i] for i in np.flatnonzero(landing)}
+        supporting = found & self.feet & ~fresh
+        if not any(self.sides[i] not in legs for i in np.flatnonzero(supporting)):
+            return fresh
+        self.seen |= self.sensing.whole_feet(landing)  # the foot and its chain are support from now on
+        return fresh & ~self.seen
 
     def first_sampled(self, bodies: np.ndarray) -> float:
         """s: the first physics sample since the last control step in which one of `bodies` touched

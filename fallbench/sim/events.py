@@ -264,6 +264,8 @@ class ImpactDetector:
     """Impact: the first contact, after the fall starts, of a body that was not touching then.
 
     In a drop nothing touches at the start of the fall, so the feet's first contact is the impact.
+    The episode does not pass it a step (a foot set down while a foot of the other leg touches,
+    before the first impact: `Episode.without_steps`): the foot joins the support instead.
     """
 
     support: set[str] | None = None  # bodies in contact when the fall was detected
