@@ -23,7 +23,7 @@ DAMAGE_MEASURES = (
 )
 FALLBACKS = {"imu_peak_z_landing": ("imu_peak_z", "IMU z peak, whole run (m/s²)")}
 # A protective arm may make the robot fall in at most this share of the runs none + stiff survives
-# (issue "do no harm"); above it the verdict never names the arm, whatever its interval says.
+# (the benchmark's do-no-harm bound); above it the verdict never names the arm, whatever its interval says.
 INDUCED_FALL_LIMIT = 0.05
 
 
@@ -34,9 +34,8 @@ class Harm:
 
     label: str
     evidence: str
-    interval: (
-        bool  # a paired change clearly worse ("clearly worse than none + stiff on ..."), else induced falls
-    )
+    # a paired change clearly worse ("clearly worse than none + stiff on ..."), else induced falls
+    interval: bool
 
 
 def measures_for(runs: pd.DataFrame) -> list[Measure]:

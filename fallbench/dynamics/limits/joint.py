@@ -32,9 +32,8 @@ class JointLimit(Limit):
     horizon: float  # s
     margin: float = 0.0  # rad kept from each end of the range
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s, per actuator; empty: 0
-    braking: np.ndarray = field(
-        default_factory=lambda: np.zeros(0)
-    )  # rad/s^2, per actuator; empty or 0: none
+    # rad/s^2, per actuator; empty or 0: no braking bound
+    braking: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def compute(self, state: RobotState) -> LimitRows:
         """Bounds on q_ddot (rad/s^2, all nv entries) that keep every actuated joint's servo rest
@@ -132,7 +131,7 @@ def braking_bounds(
 ) -> tuple[np.ndarray, np.ndarray]:
     """q_ddot bounds (rad/s^2, per joint) held over the horizon h (s) after which each joint, at
     distance[:, 0] (rad) above its lower end and distance[:, 1] below its upper end, moving at rate
-    (rad/s), can still stop before either end decelerating at braking (rad/s^2): the roots of
+    (rad/s), can still stop before either end decelerating at braking (rad/s^2): the larger root of
     v_h^2 = 2 b (d - v h - q_ddot h^2 / 2) with v_h = v + q_ddot h toward that end; where no root is
     real, the bound that stops the joint at once (-v / h - b / 2)."""
 
