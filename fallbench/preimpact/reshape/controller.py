@@ -183,6 +183,14 @@ class ReshapeController:
         self.band = inner_range(world.joint_range, self.config.joint_limit_margin)  # rad
         lag = servo_lag(world.default_kp, world.default_kd)  # s
         self.lag = lag if self.config.joint_limit_servo_lag else np.zeros(world.model.nu)
+        # rad: the servo reference's largest lead on its joint (`reference_lead`); inf where kp is 0
+        saturating = np.divide(
+            world.torque_limit,
+            world.default_kp,
+            out=np.full(world.model.nu, np.inf),
+            where=world.default_kp > 0,
+        )
+        self.lead = self.config.reference_lead * saturating if self.config.reference_lead else None
         self.qp = make_solver(
             self.config.solver, self.config.eps_abs, self.config.max_iter, self.config.max_iter_in
         )
@@ -259,12 +267,11 @@ class ReshapeController:
         self.failures += not solved
         dt = self.scenario.control_dt
         q_ref = self.q_ref + self.qd_ref * dt + 0.5 * qdd * dt**2
-        if config.reference_lead:
+        if self.lead is not None:
             # anti-windup: beyond torque limit / kp from the joint the servo saturates anyway, and a
             # reference integrated further ahead only swings the joint past it once it catches up
-            lead = config.reference_lead * world.torque_limit / world.default_kp
             measured = qpos[world.qpos_adr]
-            q_ref = np.clip(q_ref, measured - lead, measured + lead)
+            q_ref = np.clip(q_ref, measured - self.lead, measured + self.lead)
         self.q_ref, self.qd_ref = bounded_reference(q_ref, self.qd_ref + qdd * dt, self.band, self.lag)
         self.step_ms.append((time.perf_counter() - started) * 1e3)
         return ServoCommand(world.default_kp, world.default_kd, self.q_ref, self.qd_ref)

@@ -72,7 +72,11 @@ def build_reshape_problem(
     qp.equal(base_rows, base_values)
     qp.limit(TorqueLimit(torque_limit).compute(state))
     horizon = LIMIT_HORIZON_STEPS * dt
-    braking = joint_braking * torque_limit / np.diag(terms.H)[state.robot.actuated_v]
+    braking = (
+        joint_braking * torque_limit / np.diag(terms.H)[state.robot.actuated_v]
+        if joint_braking
+        else np.zeros(0)
+    )
     qp.limit(JointLimit(joint_range, horizon, joint_margin, braking=braking).compute(state))
     qp.bound(lam, 0.0, np.inf)
 
